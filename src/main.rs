@@ -1,0 +1,5 @@
+//! The `spherefit` binary: everything lives in the library's `cli` module.
+
+fn main() -> std::process::ExitCode {
+    spherefit::cli::run()
+}
