@@ -8,6 +8,9 @@
 //!   SLERP and contribution coefficients), [`sphere::knots`] (parameters, adaptive knots),
 //!   [`sphere::fit`] (GLS-PIA), [`sphere::metrics`] (geodesic errors),
 //!   [`sphere::document`] (the JSON documents).
+//! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out.
+//! * [`service`]: the HTTP service (axum): `/v1/fit`, `/v1/interpolate`, `/v1/evaluate` and the
+//!   S^n documents under `/v1/sphere/`.
 //! * [`cli`]: the command line.
 //!
 //! ```
@@ -28,4 +31,6 @@
 //! ```
 
 pub mod cli;
+pub mod earth;
+pub mod service;
 pub mod sphere;

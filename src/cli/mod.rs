@@ -3,6 +3,8 @@
 //! Exit status: 0 success, 1 some records failed (batch commands), 2 usage error or invalid
 //! input.
 
+mod batch;
+mod serve;
 mod sphere_cmd;
 
 use clap::{Parser, Subcommand};
@@ -23,6 +25,12 @@ enum Command {
     /// Curves on any S^n: JSON documents of unit vectors in, JSON out.
     #[command(subcommand)]
     Sphere(sphere_cmd::SphereCommand),
+    /// Run the HTTP service (GeoJSON fitting API; contract at /openapi.yaml).
+    Serve(serve::ServeArgs),
+    // The batch commands take their help from their argument structs.
+    Fit(batch::FitArgs),
+    Interpolate(batch::InterpolateArgs),
+    Evaluate(batch::EvaluateArgs),
 }
 
 /// A failure that ends the command, with the exit status it maps to.
@@ -49,6 +57,10 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sphere(c) => sphere_cmd::run(c),
+        Command::Serve(a) => serve::run(a),
+        Command::Fit(a) => batch::fit(a),
+        Command::Interpolate(a) => batch::interpolate(a),
+        Command::Evaluate(a) => batch::evaluate(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,11 +1,16 @@
-//! `spherefit sphere fit | evaluate`: the math core on S^n, JSON in and out.
+//! `spherefit sphere fit | interpolate | evaluate`: the math core on S^n, JSON in and out.
 
 use super::{read_json, write_json, Failure};
-use crate::sphere::document::{spline_from_json, FitDocument, PointsInput, SamplesDocument};
-use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, StepRule};
-use crate::sphere::{SphericalBSpline, SphericalCurve};
+use crate::sphere::beta::{curve_from_json, InterpolationDocument};
+use crate::sphere::document::{FitDocument, PointsInput, SamplesDocument};
+use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, Solver, StepRule};
+use crate::sphere::{interpolate, BetaSolver, InterpolationOptions, SphereError, SphericalCurve};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
+
+/// Most points `evaluate --samples` writes: about 1 GB of JSON on S^2; beyond that the output
+/// is no longer a document anyone can read, and a typo must not exhaust memory.
+const MAX_SAMPLES: usize = 10_000_000;
 
 #[derive(Debug, Subcommand)]
 pub(crate) enum SphereCommand {
@@ -16,10 +21,49 @@ pub(crate) enum SphereCommand {
     /// vectors of any dimension >= 2 (S^1 and up). Output: {"spline", "parameters", "metrics",
     /// "history"}; errors are geodesic, in radians, at the data parameters.
     Fit(FitArgs),
-    /// Evaluate a spline document (or a `sphere fit` output) at parameters.
+    /// Interpolate ordered points with a spherical Beta-spline: a G1 curve through every point.
+    ///
+    /// Input: as for `fit`, without "parameters" (the curve is at point j at parameter j).
+    /// Output: {"curve": {"type": "beta", "beta1", "beta2", "segments": [[q0, q1, q2, q3],
+    /// ...]}, "residual_rad", "iterations"}: cubic spherical Bezier segments, segment i on
+    /// parameters [i, i+1]; residual_rad is the largest angle between the curve and a point.
+    /// Shape parameters that cannot be met fail with exit status 2, naming the point.
+    Interpolate(InterpolateArgs),
+    /// Evaluate a curve at parameters: a spline document or `fit` output, or a Beta-spline
+    /// document or `interpolate` output.
     ///
     /// Output: {"parameters": [...], "points": [[...], ...]}.
     Evaluate(EvaluateArgs),
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct InterpolateArgs {
+    /// Bias beta1 > 0, the ratio of outgoing to incoming speed at a point: one value for every
+    /// point, or comma-separated values, one per point
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_negative_numbers = true,
+        default_value = "1"
+    )]
+    beta1: Vec<f64>,
+    /// Tension beta2 >= 0 (higher pulls the curve towards the point polygon): one value for
+    /// every point, or comma-separated values, one per point
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_negative_numbers = true,
+        default_value = "0"
+    )]
+    beta2: Vec<f64>,
+    /// Solver for the auxiliary vertices: newton, or jacobi (the paper's eq. 19)
+    #[arg(long, default_value = "newton")]
+    solver: BetaSolver,
+    /// Iteration limit [default: 50 for newton, 5000 for jacobi]
+    #[arg(long)]
+    max_iterations: Option<usize>,
+    /// Input JSON file; `-` or absent reads stdin
+    file: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -42,6 +86,10 @@ pub(crate) struct FitArgs {
     /// Step size: deng-lin (per control point), global (1/λmax of AᵀA) or a number
     #[arg(long, default_value = "deng-lin")]
     step: StepRule,
+    /// Optimiser: gls-pia (the paper) or gauss-newton (the least-squares optimum in a few
+    /// passes)
+    #[arg(long, default_value = "gls-pia")]
+    solver: Solver,
     /// Stop early once the max error is at or below this, in radians
     #[arg(long)]
     target_max_error_rad: Option<f64>,
@@ -55,7 +103,7 @@ pub(crate) struct EvaluateArgs {
     #[arg(long, default_value_t = 101, conflicts_with = "at")]
     samples: usize,
     /// Comma-separated parameters to evaluate at (clamped to the domain)
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     at: Option<Vec<f64>>,
     /// Input JSON file; `-` or absent reads stdin
     file: Option<PathBuf>,
@@ -64,6 +112,7 @@ pub(crate) struct EvaluateArgs {
 pub(crate) fn run(cmd: SphereCommand) -> Result<(), Failure> {
     match cmd {
         SphereCommand::Fit(a) => fit_cmd(a),
+        SphereCommand::Interpolate(a) => interpolate_cmd(a),
         SphereCommand::Evaluate(a) => evaluate_cmd(a),
     }
 }
@@ -75,7 +124,8 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
         .with_knots(a.knots)
         .with_iterations(a.iterations)
         .with_parameterization(a.parameterization)
-        .with_step(a.step);
+        .with_step(a.step)
+        .with_solver(a.solver);
     options.control_points = a.control_points;
     options.target_max_error_rad = a.target_max_error_rad;
     let report = fit(&input.points, input.parameters.as_deref(), &options).map_err(|e| {
@@ -90,9 +140,46 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
     write_json(&FitDocument::from(&report))
 }
 
+fn interpolate_cmd(a: InterpolateArgs) -> Result<(), Failure> {
+    let v = read_json(a.file.as_ref())?;
+    let input = PointsInput::from_json(&v).map_err(Failure::input)?;
+    if input.parameters.is_some() {
+        return Err(Failure::input(
+            "/parameters: interpolate takes no parameters: the Beta-spline is at point j at \
+             parameter j; shape it with --beta1 and --beta2",
+        ));
+    }
+    let base = if v.is_array() { "" } else { "/points" };
+    let mut options = InterpolationOptions::default()
+        .with_beta1_per_point(a.beta1)
+        .with_beta2_per_point(a.beta2)
+        .with_solver(a.solver);
+    options.max_iterations = a.max_iterations;
+    let result = interpolate(&input.points, &options).map_err(|e| {
+        Failure::input(match e {
+            SphereError::InvalidShapeParameter {
+                field,
+                index,
+                value,
+                rule,
+            } => format!("--{field}, value {index}: {value} is out of range: {rule}"),
+            SphereError::ShapeParameterCount { .. } => format!("--{e}"),
+            SphereError::RepeatedPoint { index, .. } | SphereError::Antipodal { index, .. } => {
+                format!("{base}/{index}: {e}")
+            }
+            SphereError::NotInterpolated { joint, .. }
+            | SphereError::DegenerateArc { joint, .. } => {
+                format!("{base}/{joint}: {e}")
+            }
+            _ => format!("{}: {e}", if base.is_empty() { "(document)" } else { base }),
+        })
+    })?;
+    write_json(&InterpolationDocument::from(&result))
+}
+
 fn evaluate_cmd(a: EvaluateArgs) -> Result<(), Failure> {
     let v = read_json(a.file.as_ref())?;
-    let spline: SphericalBSpline = spline_from_json(&v).map_err(Failure::input)?;
+    let curve = curve_from_json(&v).map_err(Failure::input)?;
     let ts = match a.at {
         Some(ts) => {
             if let Some(i) = ts.iter().position(|t| !t.is_finite()) {
@@ -102,9 +189,15 @@ fn evaluate_cmd(a: EvaluateArgs) -> Result<(), Failure> {
             }
             ts
         }
-        None => crate::sphere::curve::even_parameters(spline.domain(), a.samples),
+        None if a.samples > MAX_SAMPLES => {
+            return Err(Failure::input(format!(
+                "--samples: {} is more than the {MAX_SAMPLES} points one document may hold",
+                a.samples
+            )))
+        }
+        None => crate::sphere::curve::even_parameters(curve.domain(), a.samples),
     };
-    let pts = SphericalCurve::evaluate_many(&spline, &ts);
+    let pts = curve.evaluate_many(&ts);
     write_json(&SamplesDocument {
         parameters: ts,
         points: pts.to_rows(),

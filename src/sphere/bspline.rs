@@ -15,6 +15,56 @@ use rayon::prelude::*;
 /// oscillation and cost.
 pub const MAX_DEGREE: usize = 5;
 
+/// The degree of a de Boor kernel as a compile-time constant: every supported degree (1 to
+/// [`MAX_DEGREE`]) is compiled in, so the triangle's loops unroll completely (with a runtime
+/// degree they cost about twice the instructions; `benches/sphere.rs`, `examples/profile_pass.rs`).
+pub(crate) trait Degree: Copy + Send + Sync + 'static {
+    fn get(self) -> usize;
+}
+
+/// Degree `P` known at compile time.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Deg<const P: usize>;
+
+impl<const P: usize> Degree for Deg<P> {
+    #[inline(always)]
+    fn get(self) -> usize {
+        P
+    }
+}
+
+/// Runs `$body` with `$g` bound to `Deg<p>` for the runtime degree `p` (1 to 5, validated when
+/// the spline was built).
+macro_rules! with_degree {
+    ($p:expr, |$g:ident| $body:expr) => {{
+        use $crate::sphere::bspline::Deg;
+        match $p {
+            1 => {
+                let $g = Deg::<1>;
+                $body
+            }
+            2 => {
+                let $g = Deg::<2>;
+                $body
+            }
+            3 => {
+                let $g = Deg::<3>;
+                $body
+            }
+            4 => {
+                let $g = Deg::<4>;
+                $body
+            }
+            _ => {
+                debug_assert_eq!($p, 5);
+                let $g = Deg::<5>;
+                $body
+            }
+        }
+    }};
+}
+pub(crate) use with_degree;
+
 /// A clamped spherical B-spline curve on S^n.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SphericalBSpline {
@@ -96,7 +146,14 @@ impl SphericalBSpline {
         let frame = Frame::new(self.degree, &self.knots, &self.control);
         let mut scratch = Scratch::new(self.degree, self.dim());
         let k = frame.span(t);
-        frame.eval::<_, false>(Dynamic(self.dim()), k, t, &mut scratch, &mut out);
+        with_degree!(self.degree, |g| frame.eval::<_, _, false, false>(
+            Dynamic(self.dim()),
+            g,
+            k,
+            t,
+            &mut scratch,
+            &mut out
+        ));
         out
     }
 
@@ -106,10 +163,17 @@ impl SphericalBSpline {
         let frame = Frame::new(self.degree, &self.knots, &self.control);
         let mut scratch = Scratch::new(self.degree, self.dim());
         let k = frame.span(t);
-        frame.eval::<_, true>(Dynamic(self.dim()), k, t, &mut scratch, &mut point);
+        with_degree!(self.degree, |g| frame.eval::<_, _, true, false>(
+            Dynamic(self.dim()),
+            g,
+            k,
+            t,
+            &mut scratch,
+            &mut point
+        ));
         Contributions {
             first: k - self.degree,
-            coefficients: scratch.coef[self.degree][..=self.degree].to_vec(),
+            coefficients: scratch.contrib[..=self.degree].to_vec(),
             point,
         }
     }
@@ -118,15 +182,19 @@ impl SphericalBSpline {
     pub fn evaluate_many(&self, ts: &[f64]) -> PointSet {
         let dim = self.dim();
         let mut coords = vec![0.0; ts.len() * dim];
-        crate::with_dim!(dim, |d| self.evaluate_into(d, ts, &mut coords));
+        crate::with_dim!(dim, |d| with_degree!(self.degree, |g| self.evaluate_into(
+            d,
+            g,
+            ts,
+            &mut coords
+        )));
         PointSet::from_flat_unchecked(dim, coords)
     }
 
-    fn evaluate_into<D: Dim>(&self, d: D, ts: &[f64], coords: &mut [f64]) {
+    fn evaluate_into<D: Dim, G: Degree>(&self, d: D, g: G, ts: &[f64], coords: &mut [f64]) {
         const CHUNK: usize = 4096;
         let dim = d.get();
-        let arcs = control_arcs(d, &self.control);
-        let frame = Frame::with_arcs(self.degree, &self.knots, &self.control, &arcs);
+        let frame = Frame::cached(d, self.degree, &self.knots, &self.control);
         coords
             .par_chunks_mut(CHUNK * dim)
             .zip(ts.par_chunks(CHUNK))
@@ -135,7 +203,7 @@ impl SphericalBSpline {
                 let mut k = frame.span(ts[0]);
                 for (t, o) in ts.iter().zip(out.chunks_exact_mut(dim)) {
                     k = frame.span_from(k, *t);
-                    frame.eval::<D, false>(d, k, *t, &mut scratch, o);
+                    frame.eval::<D, G, false, true>(d, g, k, *t, &mut scratch, o);
                 }
             });
     }
@@ -216,44 +284,57 @@ fn validate_knots(p: usize, n: usize, knots: &[f64]) -> Result<(), SphereError> 
 /// angle and its sine are computed once per curve, not once per evaluation.
 pub(crate) fn control_arcs<D: Dim>(d: D, control: &PointSet) -> Vec<Arc> {
     let mut arcs = Vec::with_capacity(control.len());
-    arcs.push(Arc {
-        theta: 0.0,
-        sin_theta: 0.0,
-        cos_theta: 1.0,
-    });
+    arcs.push(Arc::from_angle(0.0));
     for i in 1..control.len() {
         arcs.push(Arc::between(d, control.get(i - 1), control.get(i)));
     }
     arcs
 }
 
-/// Per-thread working memory for de Boor: the triangle's points and coefficient vectors.
+/// Per-thread working memory for de Boor: the triangle's points, its SLERP weights and the
+/// contribution coefficients.
 pub(crate) struct Scratch {
     tri: Vec<f64>,
-    /// `coef[j][m]`: weight of base control `m` in the triangle's point `j`.
-    pub(crate) coef: [[f64; MAX_DEGREE + 1]; MAX_DEGREE + 1],
+    /// `weights[r][j]`: the SLERP weights that made node (r, j) of the triangle.
+    weights: [[(f64, f64); MAX_DEGREE + 1]; MAX_DEGREE + 1],
+    /// After a contributing evaluation in span k: `contrib[m]` = D_{k−p+m}(t), m = 0..=p.
+    pub(crate) contrib: [f64; MAX_DEGREE + 1],
 }
 
 impl Scratch {
     pub(crate) fn new(p: usize, dim: usize) -> Scratch {
         Scratch {
             tri: vec![0.0; (p + 1) * dim],
-            coef: [[0.0; MAX_DEGREE + 1]; MAX_DEGREE + 1],
+            weights: [[(0.0, 0.0); MAX_DEGREE + 1]; MAX_DEGREE + 1],
+            contrib: [0.0; MAX_DEGREE + 1],
         }
     }
 }
 
 /// A spline's parts as de Boor needs them, borrowed (the fitter swaps control points each
-/// iteration while knots stay put).
+/// iteration while knots stay put), plus optional per-curve caches for the hot loops.
 pub(crate) struct Frame<'a> {
     p: usize,
     knots: &'a [f64],
     control: &'a PointSet,
-    arcs: Option<&'a [Arc]>,
     last_span: usize,
+    n_ctrl: usize,
+    /// `arcs[i]`: control i − 1 to i. Level 1 of the triangle SLERPs exactly these pairs at every
+    /// parameter of a span, so their angles are computed once per curve (empty when uncached).
+    arcs: Vec<Arc>,
+    /// `1 / (u_{i+p−r+1} − u_i)` for every span and triangle node: the alphas' denominators
+    /// depend only on the knots (empty when uncached).
+    inv_den: Vec<f64>,
+}
+
+/// Index of triangle node (r, j), 1 <= r <= j <= p, in a span's block of p(p+1)/2 values.
+#[inline(always)]
+fn node_index(p: usize, r: usize, j: usize) -> usize {
+    (r - 1) * (p + 1) - (r - 1) * r / 2 + (j - r)
 }
 
 impl<'a> Frame<'a> {
+    /// A frame without caches, for evaluating at a few parameters.
     pub(crate) fn new(p: usize, knots: &'a [f64], control: &'a PointSet) -> Frame<'a> {
         let n = control.len();
         let last_span = (p..n).rev().find(|&k| knots[k] < knots[k + 1]).unwrap_or(p);
@@ -261,21 +342,36 @@ impl<'a> Frame<'a> {
             p,
             knots,
             control,
-            arcs: None,
             last_span,
+            n_ctrl: n,
+            arcs: Vec::new(),
+            inv_den: Vec::new(),
         }
     }
 
-    pub(crate) fn with_arcs(
+    /// A frame with the control arcs and alpha denominators cached, for passes over many
+    /// parameters (use `eval::<_, _, _, true>`).
+    pub(crate) fn cached<D: Dim>(
+        d: D,
         p: usize,
         knots: &'a [f64],
         control: &'a PointSet,
-        arcs: &'a [Arc],
     ) -> Frame<'a> {
-        Frame {
-            arcs: Some(arcs),
-            ..Frame::new(p, knots, control)
+        let mut f = Frame::new(p, knots, control);
+        f.arcs = control_arcs(d, control);
+        let block = p * (p + 1) / 2;
+        f.inv_den = vec![0.0; (f.n_ctrl - p) * block];
+        for k in p..f.n_ctrl {
+            for r in 1..=p {
+                for j in r..=p {
+                    let i = k - p + j;
+                    let den = knots[i + p - r + 1] - knots[i];
+                    f.inv_den[(k - p) * block + node_index(p, r, j)] =
+                        if den > 0.0 { 1.0 / den } else { 0.0 };
+                }
+            }
         }
+        f
     }
 
     /// The span k (p <= k <= n - 1) with `u_k <= t < u_{k+1}`; parameters before the domain
@@ -299,50 +395,52 @@ impl<'a> Frame<'a> {
         self.span(t)
     }
 
-    /// Evaluates C(t) in span `k` into `out` (normalised). With `CONTRIB`, `scratch.coef[p]`
+    /// Evaluates C(t) in span `k` into `out` (normalised). With `CONTRIB`, `scratch.contrib`
     /// holds D_{k-p+m}(t), m = 0..=p, scaled by the same normalisation so `Σ D P = C` holds.
     #[inline(always)]
-    pub(crate) fn eval<D: Dim, const CONTRIB: bool>(
+    pub(crate) fn eval<D: Dim, G: Degree, const CONTRIB: bool, const CACHED: bool>(
         &self,
         d: D,
+        g: G,
         k: usize,
         t: f64,
         scratch: &mut Scratch,
         out: &mut [f64],
     ) {
-        let (p, dim, u) = (self.p, d.get(), self.knots);
-        let t = t.clamp(u[p], u[self.control.len()]);
+        debug_assert_eq!(g.get(), self.p);
+        let (p, dim, u) = (g.get(), d.get(), self.knots);
+        let t = t.clamp(u[p], u[self.n_ctrl]);
         let tri = &mut scratch.tri[..(p + 1) * dim];
-        for j in 0..=p {
-            tri[j * dim..(j + 1) * dim].copy_from_slice(self.control.get(k - p + j));
-        }
-        if CONTRIB {
-            for (j, row) in scratch.coef.iter_mut().enumerate().take(p + 1) {
-                *row = [0.0; MAX_DEGREE + 1];
-                row[j] = 1.0;
-            }
-        }
-        for r in 1..=p {
-            for j in (r..=p).rev() {
+        // The p + 1 control points of span k are contiguous.
+        tri.copy_from_slice(&self.control.as_flat()[(k - p) * dim..(k + 1) * dim]);
+        debug_assert!(!CACHED || !self.arcs.is_empty());
+        let block = p * (p + 1) / 2;
+        let inv_den = if CACHED {
+            &self.inv_den[(k - p) * block..(k - p + 1) * block]
+        } else {
+            &[]
+        };
+        for r in 1..p + 1 {
+            for j in (r..p + 1).rev() {
                 let i = k - p + j;
-                let alpha = (t - u[i]) / (u[i + p - r + 1] - u[i]);
+                let alpha = if CACHED {
+                    (t - u[i]) * inv_den[node_index(p, r, j)]
+                } else {
+                    (t - u[i]) / (u[i + p - r + 1] - u[i])
+                };
                 let (left, right) = tri.split_at_mut(j * dim);
                 let a = &left[(j - 1) * dim..j * dim];
                 let b = &mut right[..dim];
-                let arc = match (r, self.arcs) {
-                    (1, Some(arcs)) => arcs[i],
-                    _ => Arc::between(d, a, b),
+                let (w0, w1) = if CACHED && r == 1 {
+                    self.arcs[i].weights_unit(alpha)
+                } else {
+                    Arc::between(d, a, b).weights_unit(alpha)
                 };
-                let (w0, w1) = arc.weights(alpha);
                 for c in 0..dim {
                     b[c] = w0 * a[c] + w1 * b[c];
                 }
                 if CONTRIB {
-                    let (lo, hi) = scratch.coef.split_at_mut(j);
-                    let (prev, cur) = (&lo[j - 1], &mut hi[0]);
-                    for m in j - r..=j {
-                        cur[m] = w0 * prev[m] + w1 * cur[m];
-                    }
+                    scratch.weights[r][j] = (w0, w1);
                 }
             }
         }
@@ -350,9 +448,19 @@ impl<'a> Frame<'a> {
         let norm = normalize(d, apex);
         out[..dim].copy_from_slice(apex);
         if CONTRIB {
-            let inv = 1.0 / norm;
-            for c in scratch.coef[p][..=p].iter_mut() {
-                *c *= inv;
+            // (Exclusive ranges: `a..=b` loops do not unroll as well in the hot path.)
+            // D_i is the sum over paths from P_i up to the apex of the products of the SLERP
+            // weights on the path: push the apex's weight (1 / norm, for the normalisation)
+            // down the triangle level by level. Node (r, j) = w0·(r−1, j−1) + w1·(r−1, j).
+            let c = &mut scratch.contrib;
+            c[p] = 1.0 / norm;
+            for r in (1..p + 1).rev() {
+                let w = &scratch.weights[r];
+                c[r - 1] = w[r].0 * c[r];
+                for j in r..p {
+                    c[j] = w[j].1 * c[j] + w[j + 1].0 * c[j + 1];
+                }
+                c[p] *= w[p].1;
             }
         }
     }

@@ -55,6 +55,29 @@ impl std::str::FromStr for StepRule {
     }
 }
 
+/// Which optimiser moves the control points.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Solver {
+    /// GLS-PIA exactly as the paper describes (progressive iterative approximation).
+    #[default]
+    GlsPia,
+    /// Gauss–Newton / Levenberg–Marquardt on the same loss with banded normal equations:
+    /// reaches GLS-PIA's fixed point in a few passes (see `gauss_newton.rs`).
+    GaussNewton,
+}
+
+impl std::str::FromStr for Solver {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "gls-pia" => Ok(Solver::GlsPia),
+            "gauss-newton" => Ok(Solver::GaussNewton),
+            _ => Err(format!("unknown solver {s:?}: use gls-pia or gauss-newton")),
+        }
+    }
+}
+
 /// What to fit and how. `Default` is the paper's setting: cubic, geodesic-difference knots,
 /// chord-length parameters, Deng–Lin steps, 30 iterations.
 #[derive(Clone, Debug, PartialEq)]
@@ -75,8 +98,10 @@ pub struct FitOptions {
     pub target_max_error_rad: Option<f64>,
     /// Stop when an iteration lowers the RMS error by less than this fraction.
     pub stagnation: f64,
-    /// Step size rule.
+    /// Step size rule (GLS-PIA only).
     pub step: StepRule,
+    /// The optimiser.
+    pub solver: Solver,
 }
 
 impl Default for FitOptions {
@@ -91,6 +116,7 @@ impl Default for FitOptions {
             target_max_error_rad: None,
             stagnation: DEFAULT_STAGNATION,
             step: StepRule::DengLin,
+            solver: Solver::GlsPia,
         }
     }
 }
@@ -131,6 +157,11 @@ impl FitOptions {
         self.target_max_error_rad = Some(e);
         self
     }
+    /// Sets the solver.
+    pub fn with_solver(mut self, s: Solver) -> Self {
+        self.solver = s;
+        self
+    }
     /// Sets the step rule.
     pub fn with_step(mut self, s: StepRule) -> Self {
         self.step = s;
@@ -160,7 +191,7 @@ pub struct FitReport {
     pub parameters: Vec<f64>,
     /// Errors of the returned curve at the data parameters.
     pub metrics: ErrorMetrics,
-    /// Number of control point updates made.
+    /// Number of control point updates made (accepted steps for Gauss–Newton).
     pub iterations: usize,
     /// True when the iteration stopped because it met the error target or stagnated, false when
     /// it ran out of iterations.
@@ -169,7 +200,8 @@ pub struct FitReport {
     pub history: Vec<IterationError>,
 }
 
-/// Fits a spherical B-spline to ordered `points` with GLS-PIA.
+/// Fits a spherical B-spline to ordered `points` with GLS-PIA (or, with
+/// [`Solver::GaussNewton`], the fast solver).
 ///
 /// `given_params` (timestamps, for example) are normalised to [0, 1]; without them the
 /// parameters come from `options.parameterization`.
@@ -241,7 +273,10 @@ pub fn fit(
     }
     let initial = greville_control_points(points, &params, &knots, p)?;
     let spline = SphericalBSpline::try_new(p, knots, initial)?;
-    Ok(gls_pia(spline, points, params, options))
+    Ok(match options.solver {
+        Solver::GlsPia => gls_pia(spline, points, params, options),
+        Solver::GaussNewton => super::gauss_newton::gauss_newton(spline, points, params, options),
+    })
 }
 
 /// Runs GLS-PIA from `spline` (its knots are kept) on points with known parameters.
@@ -251,7 +286,6 @@ pub fn gls_pia(
     params: Vec<f64>,
     options: &FitOptions,
 ) -> FitReport {
-    let dim = spline.dim();
     let global_mu = match options.step {
         StepRule::DengLin => None,
         StepRule::Global => Some(1.0 / largest_eigenvalue(&spline, &params)),
@@ -293,19 +327,7 @@ pub fn gls_pia(
             break;
         }
         last_rms = m.rms_error_rad;
-        let control = spline_control_mut(&mut spline);
-        for i in 0..control.len() {
-            let w = pass.weights[i];
-            if w <= 0.0 {
-                continue; // no data in this control point's support: nothing to pull it
-            }
-            let mu = global_mu.unwrap_or(1.0 / w);
-            let pi = control.get_mut(i);
-            for (x, mv) in pi.iter_mut().zip(&pass.moves[i * dim..(i + 1) * dim]) {
-                *x += mu * mv;
-            }
-            normalize(Dynamic(dim), pi);
-        }
+        apply_moves(&mut spline, &pass.moves, &pass.weights, global_mu);
         iterations += 1;
     }
     let (spline, metrics) = best.expect("at least one pass ran");
@@ -319,8 +341,47 @@ pub fn gls_pia(
     }
 }
 
-fn spline_control_mut(s: &mut SphericalBSpline) -> &mut PointSet {
-    s.control_points_mut()
+/// One GLS-PIA iteration in place: measures the current curve, moves every control point, and
+/// returns the errors measured *before* the move. `step` as in [`FitOptions::step`]
+/// (`StepRule::Global` is computed afresh here; [`gls_pia`] computes it once).
+pub fn gls_pia_iteration(
+    spline: &mut SphericalBSpline,
+    points: &PointSet,
+    params: &[f64],
+    step: StepRule,
+) -> ErrorMetrics {
+    let global_mu = match step {
+        StepRule::DengLin => None,
+        StepRule::Global => Some(1.0 / largest_eigenvalue(spline, params)),
+        StepRule::Constant(mu) => Some(mu),
+    };
+    let pass = run_pass(spline, points, params, PassMode::Accumulate);
+    apply_moves(spline, &pass.moves, &pass.weights, global_mu);
+    pass.errors.metrics()
+}
+
+/// `P_i ← (P_i + μ_i M_i) / |P_i + μ_i M_i|` with `M_i = Σ_j D_i(t_j) δ_j` and `μ_i = 1 / Σ_j
+/// D_i(t_j)` (Deng–Lin) unless a global μ is given.
+fn apply_moves(
+    spline: &mut SphericalBSpline,
+    moves: &[f64],
+    weights: &[f64],
+    global_mu: Option<f64>,
+) {
+    let dim = spline.dim();
+    let control = spline.control_points_mut();
+    for i in 0..control.len() {
+        let w = weights[i];
+        if w <= 0.0 {
+            continue; // no data in this control point's support: nothing pulls it
+        }
+        let mu = global_mu.unwrap_or(1.0 / w);
+        let pi = control.get_mut(i);
+        for (x, mv) in pi.iter_mut().zip(&moves[i * dim..(i + 1) * dim]) {
+            *x += mu * mv;
+        }
+        normalize(Dynamic(dim), pi);
+    }
 }
 
 /// λ_max(AᵀA) of the contribution matrix A (rows: data points, columns: control points) by

@@ -10,7 +10,7 @@
 //! * Initial control points: the data polyline (SLERP between neighbours) at the Greville
 //!   abscissae of the knots (§4.3).
 
-use super::point::{dot, normalize, slerp, Arc, Dynamic, PointSet};
+use super::point::{dot, normalize, slerp, Arc, Dim, Dynamic, PointSet};
 use super::SphereError;
 use serde::{Deserialize, Serialize};
 
@@ -214,8 +214,19 @@ fn feature_function(
     p: usize,
     geodesic: bool,
 ) -> (Vec<f64>, Vec<f64>) {
-    let dim = points.dim();
-    let d = Dynamic(dim);
+    crate::with_dim!(points.dim(), |d| feature_function_dim(
+        d, points, params, p, geodesic
+    ))
+}
+
+fn feature_function_dim<D: Dim>(
+    d: D,
+    points: &PointSet,
+    params: &[f64],
+    p: usize,
+    geodesic: bool,
+) -> (Vec<f64>, Vec<f64>) {
+    let dim = d.get();
     // Order 0, keeping only strictly increasing parameters (repeated points add nothing).
     let mut u: Vec<f64> = Vec::with_capacity(params.len());
     let mut q: Vec<f64> = Vec::with_capacity(params.len() * dim);
@@ -225,58 +236,60 @@ fn feature_function(
             q.extend_from_slice(points.get(i));
         }
     }
-    let mut base = q.clone();
+    // Each order is computed in place: entry i of order k+1 only reads entries i and i+1 of
+    // order k, so walking i upwards never reads an overwritten value.
+    let mut base = if geodesic { q.clone() } else { Vec::new() };
     let mut h = vec![0.0; dim];
-    let mut a = vec![0.0; dim];
-    let mut b = vec![0.0; dim];
+    let mut len = u.len();
     for _ in 0..p {
-        let len = u.len();
         if len < 2 {
             break;
         }
-        let mut nu = Vec::with_capacity(len - 1);
-        let mut nq = Vec::with_capacity((len - 1) * dim);
-        let mut nbase = Vec::with_capacity((len - 1) * dim);
         for i in 0..len - 1 {
-            let (qi, qj) = (&q[i * dim..(i + 1) * dim], &q[(i + 1) * dim..(i + 2) * dim]);
-            a.copy_from_slice(qi);
-            b.copy_from_slice(qj);
+            let du = u[i + 1] - u[i];
+            let (lo, hi) = q.split_at_mut((i + 1) * dim);
+            let (a, b) = (&mut lo[i * dim..], &hi[..dim]);
             if geodesic {
-                let (bi, bj) = (
-                    &base[i * dim..(i + 1) * dim],
-                    &base[(i + 1) * dim..(i + 2) * dim],
-                );
+                let (bl, bh) = base.split_at_mut((i + 1) * dim);
+                let (bi, bj) = (&mut bl[i * dim..], &bh[..dim]);
                 for k in 0..dim {
                     h[k] = bi[k] + bj[k];
                 }
                 normalize(d, &mut h);
-                for v in [&mut a, &mut b] {
-                    let along = dot(d, v, &h);
-                    for k in 0..dim {
-                        v[k] -= along * h[k];
-                    }
+                // proj_h b − proj_h a = (b − a) − ((b − a)·h) h
+                let mut along = 0.0;
+                for k in 0..dim {
+                    along += (b[k] - a[k]) * h[k];
                 }
-                nbase.extend_from_slice(&h);
+                for k in 0..dim {
+                    a[k] = (b[k] - a[k] - along * h[k]) / du;
+                }
+                bi[..dim].copy_from_slice(&h[..dim]);
+            } else {
+                for k in 0..dim {
+                    a[k] = (b[k] - a[k]) / du;
+                }
             }
-            let du = u[i + 1] - u[i];
-            nq.extend((0..dim).map(|k| (b[k] - a[k]) / du));
-            nu.push(0.5 * (u[i] + u[i + 1]));
+            u[i] = 0.5 * (u[i] + u[i + 1]);
         }
-        u = nu;
-        q = nq;
-        if geodesic {
-            base = nbase;
-        }
+        len -= 1;
     }
     let first = params[0];
     let last = params[params.len() - 1];
     let mut nodes_u = vec![first];
     let mut nodes_f = vec![0.0];
-    for (i, &ui) in u.iter().enumerate() {
+    let inv_p = 1.0 / p as f64;
+    for i in 0..len.min(u.len()) {
         let v = &q[i * dim..(i + 1) * dim];
-        let mag = dot(d, v, v).sqrt().powf(1.0 / p as f64);
-        if ui > *nodes_u.last().unwrap() && ui < last && mag.is_finite() {
-            nodes_u.push(ui);
+        let norm = dot(d, v, v).sqrt();
+        let mag = match p {
+            1 => norm,
+            2 => norm.sqrt(),
+            3 => norm.cbrt(),
+            _ => norm.powf(inv_p),
+        };
+        if u[i] > *nodes_u.last().unwrap() && u[i] < last && mag.is_finite() {
+            nodes_u.push(u[i]);
             nodes_f.push(mag);
         }
     }

@@ -3,22 +3,37 @@
 //! Nothing here knows about GeoJSON, HTTP or metres; the Earth layer ([`crate::earth`]) builds
 //! on it. Every public result is a unit vector (|norm - 1| < 1e-12).
 
+pub mod banded;
+pub mod beta;
+pub mod bezier;
 pub mod bspline;
 pub mod curve;
 pub mod document;
 pub mod fit;
+mod gauss_newton;
+mod jacobian;
 pub mod knots;
 pub mod metrics;
 mod pass;
 pub mod point;
+pub mod simplify;
+pub mod tolerance;
 
+pub use beta::{
+    interpolate, AnyCurve, BetaDocument, BetaInterpolation, BetaSolver, InterpolationOptions,
+    SphericalBetaSpline,
+};
+pub use bezier::SphericalBezier;
 pub use bspline::SphericalBSpline;
 pub use curve::SphericalCurve;
 pub use document::SplineDocument;
-pub use fit::{fit, FitOptions, FitReport, IterationError, StepRule};
+pub use fit::{
+    fit, gls_pia, gls_pia_iteration, FitOptions, FitReport, IterationError, Solver, StepRule,
+};
 pub use knots::{KnotPlacement, Parameterization};
 pub use metrics::ErrorMetrics;
 pub use point::PointSet;
+pub use tolerance::{fit_to_tolerance, KnotRule, ToleranceFit, ToleranceOptions};
 
 /// Everything that can be wrong with input to the math core. Each variant carries what a user
 /// needs to find and fix the offending value.
@@ -59,4 +74,56 @@ pub enum SphereError {
     InvalidParameters { reason: String },
     #[error("all {count} points are the same point: there is no curve to fit")]
     AllPointsEqual { count: usize },
+    #[error("{field} {index}: {value} is out of range: {rule}")]
+    InvalidShapeParameter {
+        field: &'static str,
+        index: usize,
+        value: f64,
+        rule: &'static str,
+    },
+    #[error(
+        "{field}: expected 1 value (used at every point) or {expected} (one per point), got {got}"
+    )]
+    ShapeParameterCount {
+        field: &'static str,
+        expected: usize,
+        got: usize,
+    },
+    #[error("points {} and {index} are the same point ({angle_rad} rad apart): an interpolating curve cannot pass through one point at two consecutive parameters; remove the repeat", index.saturating_sub(1))]
+    RepeatedPoint { index: usize, angle_rad: f64 },
+    #[error("point {joint}: Beta-spline interpolation failed after {iterations} iterations: the curve misses this point by {residual_rad} rad (tolerance {tolerance_rad} rad); the shape parameters cannot be met near this point (move beta1 towards 1)")]
+    NotInterpolated {
+        joint: usize,
+        residual_rad: f64,
+        tolerance_rad: f64,
+        iterations: usize,
+    },
+    #[error("point {joint}: the Beta-spline needs an arc of (nearly) half a great circle here ({angle_rad} rad), where the curve is undefined; the shape parameters cannot be met near this point (move beta1 towards 1)")]
+    DegenerateArc { joint: usize, angle_rad: f64 },
+}
+
+/// Entry points that exist only so `benches/` can compare implementation choices.
+#[doc(hidden)]
+pub mod bench_hooks {
+    use super::pass::{run_pass_dim, PassMode};
+    use super::point::Dynamic;
+    use super::{ErrorMetrics, PointSet, SphericalBSpline};
+
+    /// One accumulate pass with the runtime-dimension kernel, whatever the dimension: measures
+    /// what the compile-time `Fixed<3>` path saves on S^2.
+    pub fn accumulate_pass_dynamic(
+        spline: &SphericalBSpline,
+        points: &PointSet,
+        params: &[f64],
+    ) -> ErrorMetrics {
+        run_pass_dim(
+            Dynamic(spline.dim()),
+            spline,
+            points,
+            params,
+            PassMode::Accumulate,
+        )
+        .errors
+        .metrics()
+    }
 }

@@ -5,10 +5,16 @@
 //! each chunk accumulates only into the control points its spans touch, and chunk results are
 //! merged in order, so the result does not depend on the number of threads.
 
-use super::bspline::{control_arcs, Frame, Scratch, SphericalBSpline};
+use super::banded::SymmetricBand;
+use super::bspline::{with_degree, Degree, Frame, Scratch, SphericalBSpline};
+use super::jacobian::{eval_with_jacobian, tangent_bases, JacobianScratch};
 use super::metrics::ErrorSums;
-use super::point::{Dim, PointSet};
+use super::point::SERIES_ANGLE_MAX_RAD;
+use super::point::{angle_from_chords, diff_sum_sq, dot, sinc_series, Dim, PointSet};
 use rayon::prelude::*;
+
+/// Dimensions up to this keep the error vector on the stack (S^2, S^3, Kendall S^14 ...).
+const MAX_DIM_ON_STACK: usize = 16;
 
 /// Data points per parallel work item: large enough to amortise the per-chunk buffers, small
 /// enough to balance two to a few dozen cores on 100k-point inputs.
@@ -20,6 +26,13 @@ pub(crate) enum PassMode {
     Measure,
     /// Errors plus `Σ_j D_i(t_j) δ_j` and `Σ_j D_i(t_j)` per control point.
     Accumulate,
+    /// Errors plus the normal equations of the linearised least-squares step: `AᵀA` (banded,
+    /// `A_ji = D_i(t_j)`) in `band` and `Aᵀ r` in `moves`, with `r_j = log_{C(t_j)}(q_j)`.
+    Normal,
+    /// Errors plus the Gauss–Newton normal equations with the exact Jacobian of C(t_j) in the
+    /// tangent coordinates of each control point (`jacobian.rs`): `JᵀJ` in `band` (unknowns
+    /// ordered control by control, `dim − 1` each), `Jᵀ r` in `moves`, the bases in `bases`.
+    Exact,
 }
 
 pub(crate) struct PassResult {
@@ -28,6 +41,10 @@ pub(crate) struct PassResult {
     pub moves: Vec<f64>,
     /// `Σ_j D_i(t_j)` per control point (empty when measuring).
     pub weights: Vec<f64>,
+    /// `AᵀA` in [`PassMode::Normal`], `JᵀJ` in [`PassMode::Exact`].
+    pub band: Option<SymmetricBand>,
+    /// The tangent bases of the control points in [`PassMode::Exact`].
+    pub bases: Vec<f64>,
 }
 
 struct ChunkResult {
@@ -35,6 +52,7 @@ struct ChunkResult {
     first_ctrl: usize,
     moves: Vec<f64>,
     weights: Vec<f64>,
+    band: Option<SymmetricBand>,
 }
 
 /// Runs one pass. `params` must be non-decreasing (they are, by construction).
@@ -49,16 +67,36 @@ pub(crate) fn run_pass(
     ))
 }
 
-fn run_pass_dim<D: Dim>(
+pub(crate) fn run_pass_dim<D: Dim>(
     d: D,
     spline: &SphericalBSpline,
     points: &PointSet,
     params: &[f64],
     mode: PassMode,
 ) -> PassResult {
-    let (p, dim, n_ctrl) = (spline.degree(), d.get(), spline.control_points().len());
-    let arcs = control_arcs(d, spline.control_points());
-    let frame = Frame::with_arcs(p, spline.knots(), spline.control_points(), &arcs);
+    with_degree!(spline.degree(), |g| run_pass_kernel(
+        d, g, spline, points, params, mode
+    ))
+}
+
+fn run_pass_kernel<D: Dim, G: Degree>(
+    d: D,
+    g: G,
+    spline: &SphericalBSpline,
+    points: &PointSet,
+    params: &[f64],
+    mode: PassMode,
+) -> PassResult {
+    let (p, dim, n_ctrl) = (g.get(), d.get(), spline.control_points().len());
+    let frame = Frame::cached(d, p, spline.knots(), spline.control_points());
+    let nb = dim - 1;
+    let bases = if mode == PassMode::Exact {
+        tangent_bases(spline.control_points())
+    } else {
+        Vec::new()
+    };
+    // Numbers per control point in `moves`: one per coordinate, or one per tangent direction.
+    let stride = if mode == PassMode::Exact { nb } else { dim };
     let chunks: Vec<ChunkResult> = params
         .par_chunks(CHUNK)
         .enumerate()
@@ -73,6 +111,7 @@ fn run_pass_dim<D: Dim>(
                 first_ctrl,
                 moves: Vec::new(),
                 weights: Vec::new(),
+                band: None,
             };
             let mut scratch = Scratch::new(p, dim);
             let mut c_pt = vec![0.0; dim];
@@ -81,7 +120,7 @@ fn run_pass_dim<D: Dim>(
                 PassMode::Measure => {
                     for (j, &t) in ts.iter().enumerate() {
                         k = frame.span_from(k, t);
-                        frame.eval::<D, false>(d, k, t, &mut scratch, &mut c_pt);
+                        frame.eval::<D, G, false, true>(d, g, k, t, &mut scratch, &mut c_pt);
                         let q = points.get(offset + j);
                         let (theta, _) = error_arc(d, q, &c_pt);
                         out.errors.add(offset + j, theta);
@@ -92,24 +131,94 @@ fn run_pass_dim<D: Dim>(
                     out.weights = vec![0.0; local];
                     for (j, &t) in ts.iter().enumerate() {
                         k = frame.span_from(k, t);
-                        frame.eval::<D, true>(d, k, t, &mut scratch, &mut c_pt);
+                        frame.eval::<D, G, true, true>(d, g, k, t, &mut scratch, &mut c_pt);
                         let q = points.get(offset + j);
                         let (theta, scale) = error_arc(d, q, &c_pt);
                         out.errors.add(offset + j, theta);
                         // δ_j = (q − C) / |q − C| · θ: chord direction, geodesic length.
+                        let mut delta = [0.0; MAX_DIM_ON_STACK];
+                        let delta = &mut delta[..dim.min(MAX_DIM_ON_STACK)];
+                        let use_stack = dim <= MAX_DIM_ON_STACK;
+                        if use_stack {
+                            for x in 0..dim {
+                                delta[x] = scale * (q[x] - c_pt[x]);
+                            }
+                        }
                         let base = k - p - first_ctrl;
-                        let coef = &scratch.coef[p];
-                        for m in 0..=p {
+                        let coef = &scratch.contrib;
+                        for m in 0..p + 1 {
                             let w = coef[m];
                             out.weights[base + m] += w;
-                            let ws = w * scale;
                             let mv = &mut out.moves[(base + m) * dim..(base + m + 1) * dim];
-                            let (q, c) = (&q[..dim], &c_pt[..dim]);
-                            for x in 0..dim {
-                                mv[x] += ws * (q[x] - c[x]);
+                            if use_stack {
+                                for x in 0..dim {
+                                    mv[x] += w * delta[x];
+                                }
+                            } else {
+                                let ws = w * scale;
+                                for x in 0..dim {
+                                    mv[x] += ws * (q[x] - c_pt[x]);
+                                }
                             }
                         }
                     }
+                }
+                PassMode::Normal => {
+                    out.moves = vec![0.0; local * dim];
+                    let mut band = SymmetricBand::zeros(local, p);
+                    for (j, &t) in ts.iter().enumerate() {
+                        k = frame.span_from(k, t);
+                        frame.eval::<D, G, true, true>(d, g, k, t, &mut scratch, &mut c_pt);
+                        let q = points.get(offset + j);
+                        let (theta, scale) = log_residual(d, q, &c_pt);
+                        out.errors.add(offset + j, theta);
+                        let base = k - p - first_ctrl;
+                        let coef = &scratch.contrib;
+                        for m in 0..p + 1 {
+                            let w = coef[m];
+                            for m2 in m..p + 1 {
+                                band.add_upper(base + m, base + m2, w * coef[m2]);
+                            }
+                            // r_j = scale · (q − (q·C) C), the log map of q at C.
+                            let ws = w * scale;
+                            let cos = dot(d, q, &c_pt);
+                            let mv = &mut out.moves[(base + m) * dim..(base + m + 1) * dim];
+                            for x in 0..dim {
+                                mv[x] += ws * (q[x] - cos * c_pt[x]);
+                            }
+                        }
+                    }
+                    out.band = Some(band);
+                }
+                PassMode::Exact => {
+                    let ndir = (p + 1) * nb;
+                    out.moves = vec![0.0; local * nb];
+                    let mut band = SymmetricBand::zeros(local * nb, ndir - 1);
+                    let mut js = JacobianScratch::new(p, dim);
+                    let mut r = vec![0.0; dim];
+                    for (j, &t) in ts.iter().enumerate() {
+                        k = frame.span_from(k, t);
+                        let (knots, control) = (spline.knots(), spline.control_points());
+                        eval_with_jacobian(p, knots, control, &bases, k, t, &mut js, &mut c_pt);
+                        let q = points.get(offset + j);
+                        let (theta, scale) = log_residual(d, q, &c_pt);
+                        out.errors.add(offset + j, theta);
+                        let cos = dot(d, q, &c_pt);
+                        for x in 0..dim {
+                            r[x] = scale * (q[x] - cos * c_pt[x]);
+                        }
+                        let base = (k - p - first_ctrl) * nb;
+                        let jac = &js.jac;
+                        for u in 0..ndir {
+                            let ju = &jac[u * dim..(u + 1) * dim];
+                            out.moves[base + u] += dot(d, ju, &r);
+                            for v in u..ndir {
+                                let jv = &jac[v * dim..(v + 1) * dim];
+                                band.add_upper(base + u, base + v, dot(d, ju, jv));
+                            }
+                        }
+                    }
+                    out.band = Some(band);
                 }
             }
             out
@@ -120,21 +229,39 @@ fn run_pass_dim<D: Dim>(
         errors: ErrorSums::default(),
         moves: Vec::new(),
         weights: Vec::new(),
+        band: None,
+        bases: Vec::new(),
     };
-    if mode == PassMode::Accumulate {
-        result.moves = vec![0.0; n_ctrl * dim];
-        result.weights = vec![0.0; n_ctrl];
+    match mode {
+        PassMode::Measure => {}
+        PassMode::Accumulate => {
+            result.moves = vec![0.0; n_ctrl * dim];
+            result.weights = vec![0.0; n_ctrl];
+        }
+        PassMode::Normal => {
+            result.moves = vec![0.0; n_ctrl * dim];
+            result.band = Some(SymmetricBand::zeros(n_ctrl, p));
+        }
+        PassMode::Exact => {
+            result.moves = vec![0.0; n_ctrl * nb];
+            result.band = Some(SymmetricBand::zeros(n_ctrl * nb, (p + 1) * nb - 1));
+        }
     }
+    let band_stride = if mode == PassMode::Exact { nb } else { 1 };
     for c in &chunks {
+        if let (Some(total), Some(part)) = (result.band.as_mut(), c.band.as_ref()) {
+            total.add_block(c.first_ctrl * band_stride, part);
+        }
         result.errors.merge(&c.errors);
         for (i, w) in c.weights.iter().enumerate() {
             result.weights[c.first_ctrl + i] += w;
         }
-        let start = c.first_ctrl * dim;
+        let start = c.first_ctrl * stride;
         for (i, m) in c.moves.iter().enumerate() {
             result.moves[start + i] += m;
         }
     }
+    result.bases = bases;
     result
 }
 
@@ -142,15 +269,26 @@ fn run_pass_dim<D: Dim>(
 /// `θ / |q − c|` that scales the chord `q − c` to geodesic length (1 when they coincide).
 #[inline(always)]
 fn error_arc<D: Dim>(d: D, q: &[f64], c: &[f64]) -> (f64, f64) {
-    let (q, c) = (&q[..d.get()], &c[..d.get()]);
-    let (mut m2, mut p2) = (0.0, 0.0);
-    for x in 0..d.get() {
-        let (a, b) = (q[x] - c[x], q[x] + c[x]);
-        m2 += a * a;
-        p2 += b * b;
-    }
-    let m = m2.sqrt();
-    let theta = 2.0 * m.atan2(p2.sqrt());
-    let scale = if m > 0.0 { theta / m } else { 1.0 };
+    let (m2, p2) = diff_sum_sq(d, q, c);
+    angle_from_chords(m2, p2)
+}
+
+/// The error angle θ between `q` and `c`, and the factor `θ / sin θ` that turns the tangent
+/// component `q − (q·c) c` (length sin θ) into the log map of `q` at `c` (length θ).
+#[inline(always)]
+fn log_residual<D: Dim>(d: D, q: &[f64], c: &[f64]) -> (f64, f64) {
+    let (m2, p2) = diff_sum_sq(d, q, c);
+    let (theta, _) = angle_from_chords(m2, p2);
+    let scale = if theta <= SERIES_ANGLE_MAX_RAD {
+        1.0 / sinc_series(theta)
+    } else {
+        let sin = 0.5 * m2.sqrt() * p2.sqrt();
+        // Antipodal: the direction is undefined; pull nowhere rather than divide by zero.
+        if sin > 0.0 {
+            theta / sin
+        } else {
+            0.0
+        }
+    };
     (theta, scale)
 }

@@ -24,6 +24,86 @@ pub const ANTIPODAL_MARGIN_RAD: f64 = 1e-6;
 /// is about theta^2 / 6 < 1e-17, below rounding, and it avoids 0/0 for identical points.
 pub const SMALL_ANGLE_RAD: f64 = 1e-8;
 
+/// Arcs up to this angle take the polynomial path in [`Arc::between`] and [`Arc::weights`]:
+/// truncated Taylor series of sin(x)/x (to x^12) and asin (to z^17) whose first omitted term is
+/// below 1e-17 relative for |x| <= 0.25. In de Boor's triangle neighbouring points are almost
+/// always this close, and the series are several times cheaper than libm's atan2 and sin_cos
+/// (`benches/sphere.rs`). Larger arcs use libm.
+pub const SERIES_ANGLE_MAX_RAD: f64 = 0.25;
+
+/// (2 sin(SERIES_ANGLE_MAX_RAD / 2))^2: the squared chord of the largest series arc.
+const SERIES_CHORD_SQ_MAX: f64 = 0.062_175_156_578_710_436;
+
+/// Arcs up to this angle use the short series ([`sinc_series_short`], [`asinc_series_short`]):
+/// their first omitted terms are below 1e-19 relative here. Typical neighbouring control points
+/// of a dense fit are 1e-4 to 1e-2 rad apart.
+pub const SHORT_SERIES_ANGLE_MAX_RAD: f64 = 0.02;
+
+/// (2 sin(SHORT_SERIES_ANGLE_MAX_RAD / 2))^2.
+const SHORT_SERIES_CHORD_SQ_MAX: f64 = 3.999_866_668_444_4e-4;
+
+/// sin(x)/x for |x| <= [`SHORT_SERIES_ANGLE_MAX_RAD`]: Taylor series through x^6 (the omitted
+/// x^8/9! term is < 1e-19 there).
+#[inline(always)]
+pub fn sinc_series_short(x: f64) -> f64 {
+    let y = x * x;
+    1.0 + y * (-1.0 / 6.0 + y * (1.0 / 120.0 + y * (-1.0 / 5040.0)))
+}
+
+/// asin(z)/z for 0 <= z <= sin(SHORT_SERIES_ANGLE_MAX_RAD / 2): Taylor series through z^6
+/// (the omitted term is < 1e-18 relative there).
+#[inline(always)]
+pub fn asinc_series_short(z: f64) -> f64 {
+    let y = z * z;
+    1.0 + y * (1.0 / 6.0 + y * (3.0 / 40.0 + y * (5.0 / 112.0)))
+}
+
+/// sin(x)/x for |x| <= [`SERIES_ANGLE_MAX_RAD`]: Taylor series through x^12 (the omitted
+/// x^14/15! term is < 1e-17 there).
+#[inline(always)]
+pub fn sinc_series(x: f64) -> f64 {
+    let y = x * x;
+    1.0 + y
+        * (-1.0 / 6.0
+            + y * (1.0 / 120.0
+                + y * (-1.0 / 5040.0
+                    + y * (1.0 / 362_880.0
+                        + y * (-1.0 / 39_916_800.0 + y * (1.0 / 6_227_020_800.0))))))
+}
+
+/// asin(z)/z for 0 <= z <= sin(SERIES_ANGLE_MAX_RAD / 2): Taylor series through z^16 (the
+/// omitted term is < 1e-18 relative there).
+#[inline(always)]
+pub fn asinc_series(z: f64) -> f64 {
+    let y = z * z;
+    1.0 + y
+        * (1.0 / 6.0
+            + y * (3.0 / 40.0
+                + y * (5.0 / 112.0
+                    + y * (35.0 / 1152.0
+                        + y * (63.0 / 2816.0
+                            + y * (231.0 / 13_312.0
+                                + y * (143.0 / 10_240.0 + y * (6435.0 / 557_056.0))))))))
+}
+
+/// The geodesic angle between two unit vectors from their squared chord `|a - b|^2` and squared
+/// sum `|a + b|^2`, and the factor `angle / |a - b|` (1 when they coincide).
+#[inline(always)]
+pub fn angle_from_chords(m2: f64, p2: f64) -> (f64, f64) {
+    let m = m2.sqrt();
+    if m2 <= SHORT_SERIES_CHORD_SQ_MAX {
+        let ratio = asinc_series_short(0.5 * m);
+        (m * ratio, ratio)
+    } else if m2 <= SERIES_CHORD_SQ_MAX {
+        // |a - b| = 2 sin(θ/2), so θ = 2 asin(m / 2) and θ / m = asin(z) / z with z = m / 2.
+        let ratio = asinc_series(0.5 * m);
+        (m * ratio, ratio)
+    } else {
+        let theta = 2.0 * m.atan2(p2.sqrt());
+        (theta, theta / m)
+    }
+}
+
 /// The ambient dimension of the points a kernel works on (S^n lives in R^(n+1)).
 pub trait Dim: Copy + Send + Sync + 'static {
     /// Number of coordinates per point.
@@ -87,7 +167,7 @@ pub fn dot<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
 
 /// Squared Euclidean norm of `a - b` and of `a + b`, in one pass.
 #[inline(always)]
-fn diff_sum_sq<D: Dim>(d: D, a: &[f64], b: &[f64]) -> (f64, f64) {
+pub fn diff_sum_sq<D: Dim>(d: D, a: &[f64], b: &[f64]) -> (f64, f64) {
     let (a, b) = (&a[..d.get()], &b[..d.get()]);
     let (mut m, mut p) = (0.0, 0.0);
     for k in 0..d.get() {
@@ -107,6 +187,16 @@ pub struct Arc {
     pub sin_theta: f64,
     /// cos(theta).
     pub cos_theta: f64,
+    /// 1 / sinc(theta) on the series paths (theta <= [`SERIES_ANGLE_MAX_RAD`]), else unused.
+    pub inv_sinc: f64,
+}
+
+/// Which formula an arc's SLERP weights use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum WeightPath {
+    ShortSeries,
+    Series,
+    Libm,
 }
 
 impl Arc {
@@ -116,12 +206,62 @@ impl Arc {
     #[inline(always)]
     pub fn between<D: Dim>(d: D, a: &[f64], b: &[f64]) -> Arc {
         let (m2, p2) = diff_sum_sq(d, a, b);
-        let (m, p) = (m2.sqrt(), p2.sqrt());
+        let (theta, _) = angle_from_chords(m2, p2);
         // |a - b| = 2 sin(theta/2), |a + b| = 2 cos(theta/2).
         Arc {
-            theta: 2.0 * m.atan2(p),
-            sin_theta: 0.5 * m * p,
+            theta,
+            sin_theta: 0.5 * m2.sqrt() * p2.sqrt(),
             cos_theta: 0.25 * (p2 - m2),
+            inv_sinc: Arc::inv_sinc_of(theta),
+        }
+    }
+
+    /// The arc of a given angle (radians, in [0, pi]).
+    pub fn from_angle(theta: f64) -> Arc {
+        Arc {
+            theta,
+            sin_theta: theta.sin(),
+            cos_theta: theta.cos(),
+            inv_sinc: Arc::inv_sinc_of(theta),
+        }
+    }
+
+    #[inline(always)]
+    fn path(theta: f64) -> WeightPath {
+        if theta <= SHORT_SERIES_ANGLE_MAX_RAD {
+            WeightPath::ShortSeries
+        } else if theta <= SERIES_ANGLE_MAX_RAD {
+            WeightPath::Series
+        } else {
+            WeightPath::Libm
+        }
+    }
+
+    #[inline(always)]
+    fn inv_sinc_of(theta: f64) -> f64 {
+        match Arc::path(theta) {
+            WeightPath::ShortSeries => 1.0 / sinc_series_short(theta),
+            WeightPath::Series => 1.0 / sinc_series(theta),
+            WeightPath::Libm => 0.0,
+        }
+    }
+
+    /// [`weights`](Self::weights) for `t` in [0, 1], as de Boor's alphas always are.
+    #[inline(always)]
+    pub fn weights_unit(&self, t: f64) -> (f64, f64) {
+        debug_assert!((0.0..=1.0).contains(&t));
+        let s = 1.0 - t;
+        match Arc::path(self.theta) {
+            // sin(tθ)/sinθ = t · sinc(tθ) / sinc(θ): no 0/0 as θ → 0, exact to rounding.
+            WeightPath::ShortSeries => (
+                s * sinc_series_short(s * self.theta) * self.inv_sinc,
+                t * sinc_series_short(t * self.theta) * self.inv_sinc,
+            ),
+            WeightPath::Series => (
+                s * sinc_series(s * self.theta) * self.inv_sinc,
+                t * sinc_series(t * self.theta) * self.inv_sinc,
+            ),
+            WeightPath::Libm => self.weights_libm(t),
         }
     }
 
@@ -138,6 +278,14 @@ impl Arc {
     /// the weights stay finite (sin theta is floored) so nothing turns into NaN.
     #[inline(always)]
     pub fn weights(&self, t: f64) -> (f64, f64) {
+        if (0.0..=1.0).contains(&t) {
+            return self.weights_unit(t);
+        }
+        self.weights_libm(t)
+    }
+
+    #[inline]
+    fn weights_libm(&self, t: f64) -> (f64, f64) {
         if self.theta < SMALL_ANGLE_RAD {
             return (1.0 - t, t);
         }
@@ -154,7 +302,7 @@ impl Arc {
 #[inline]
 pub fn angle<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
     let (m2, p2) = diff_sum_sq(d, a, b);
-    2.0 * m2.sqrt().atan2(p2.sqrt())
+    angle_from_chords(m2, p2).0
 }
 
 /// Geodesic distance between two unit vectors of equal length (any dimension).
@@ -393,6 +541,77 @@ mod tests {
         let near_pi = std::f64::consts::PI - 1e-9;
         let c = [near_pi.cos(), near_pi.sin(), 0.0];
         assert_relative_eq!(angle_between(&a, &c), near_pi, max_relative = 1e-15);
+    }
+
+    #[test]
+    fn series_match_libm_to_rounding() {
+        let mut worst: f64 = 0.0;
+        for i in 0..=10_000 {
+            let x = SERIES_ANGLE_MAX_RAD * i as f64 / 10_000.0;
+            let exact = if x == 0.0 { 1.0 } else { x.sin() / x };
+            worst = worst.max((sinc_series(x) - exact).abs());
+            // The series chord bound matches the angle bound.
+            let a = [1.0, 0.0, 0.0];
+            let b = [x.cos(), x.sin(), 0.0];
+            let (m2, p2) = diff_sum_sq(Fixed::<3>, &a, &b);
+            let theta = angle_from_chords(m2, p2).0;
+            let reference = 2.0 * m2.sqrt().atan2(p2.sqrt());
+            worst = worst.max((theta - reference).abs() / x.max(1e-300));
+        }
+        assert!(worst < 1e-15, "worst relative deviation {worst:e}");
+        let edge = (2.0 * (SERIES_ANGLE_MAX_RAD / 2.0).sin()).powi(2);
+        assert!((SERIES_CHORD_SQ_MAX - edge).abs() < 1e-16, "{edge:e}");
+    }
+
+    #[test]
+    fn short_series_match_libm_to_rounding() {
+        let mut worst: f64 = 0.0;
+        for i in 0..=10_000 {
+            let x = SHORT_SERIES_ANGLE_MAX_RAD * i as f64 / 10_000.0;
+            let exact = if x == 0.0 { 1.0 } else { x.sin() / x };
+            worst = worst.max((sinc_series_short(x) - exact).abs());
+            let z = (x / 2.0).sin();
+            let exact = if z == 0.0 { 1.0 } else { z.asin() / z };
+            worst = worst.max((asinc_series_short(z) - exact).abs());
+        }
+        assert!(worst < 1e-15, "worst deviation {worst:e}");
+        let edge = (2.0 * (SHORT_SERIES_ANGLE_MAX_RAD / 2.0).sin()).powi(2);
+        assert!((SHORT_SERIES_CHORD_SQ_MAX - edge).abs() < 1e-17, "{edge:e}");
+    }
+
+    #[test]
+    fn weights_agree_across_the_series_boundary() {
+        for theta in [
+            1e-12,
+            1e-6,
+            0.01,
+            0.02,
+            0.0200001,
+            0.2,
+            SERIES_ANGLE_MAX_RAD,
+            0.2500001,
+            1.0,
+            3.0,
+        ] {
+            let arc = Arc::from_angle(theta);
+            for t in [0.0, 0.1, 0.5, 0.9, 1.0] {
+                let (w0, w1) = arc.weights(t);
+                let e1 = if theta < 1e-9 {
+                    t
+                } else {
+                    (t * theta).sin() / theta.sin()
+                };
+                let e0 = if theta < 1e-9 {
+                    1.0 - t
+                } else {
+                    ((1.0 - t) * theta).sin() / theta.sin()
+                };
+                assert!(
+                    (w0 - e0).abs() < 2e-15 && (w1 - e1).abs() < 2e-15,
+                    "θ={theta} t={t}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -1,0 +1,648 @@
+//! Inputs read as a stream of records, whatever their format.
+//!
+//! * A GeoJSON text sequence (RFC 8142, `--format seq`): records are split at the RS byte
+//!   (0x1E); each is parsed on a worker thread, so one bad record is reported and skipped.
+//! * Newline-delimited GeoJSON (`--format lines`): one JSON text per line, split at LF.
+//! * One GeoJSON document (`--format geojson`): a FeatureCollection is parsed incrementally
+//!   with serde, its `features` handed on one by one as they are read (the collection is never
+//!   held whole); a Feature, a geometry or a spline document is one record.
+//!
+//! [`detect`] tells them apart by looking at the start of the input only (at most
+//! [`SNIFF_LIMIT`] bytes): a leading RS is a text sequence; a first line that is a complete
+//! JSON text (other than a FeatureCollection) followed by more text is newline-delimited;
+//! anything else is one document.
+
+use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize;
+use serde_json::{Map, Value};
+use std::fmt;
+use std::io::{self, BufRead, BufReader, Cursor, Read};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+/// The record separator of RFC 8142 text sequences.
+pub const RS: u8 = 0x1e;
+
+/// The most bytes [`detect`] reads to find the end of the first line. A longer first line is
+/// taken to be (the start of) one GeoJSON document; 4 MiB holds a 100,000-point Feature.
+pub const SNIFF_LIMIT: u64 = 4 << 20;
+
+/// Read buffer size: large enough that reads are few, small next to the memory bound.
+const BUFFER_BYTES: usize = 256 << 10;
+
+/// Input and output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Detect the input format; write the output in the input's format
+    Auto,
+    /// One GeoJSON document (FeatureCollection, Feature or geometry); written as a
+    /// FeatureCollection
+    #[value(alias = "json")]
+    Geojson,
+    /// GeoJSON text sequence (RFC 8142): each record is RS (0x1E), a JSON text, LF
+    #[value(alias = "geojsons", alias = "geojsonseq")]
+    Seq,
+    /// Newline-delimited GeoJSON: one JSON text (usually a Feature) per line
+    #[value(alias = "geojsonl", alias = "ndjson", alias = "jsonl")]
+    Lines,
+}
+
+/// One input named on the command line (or stdin).
+#[derive(Clone, Debug)]
+pub struct Input {
+    /// The name in messages: the path as given, or `stdin`.
+    pub name: String,
+    /// `None` for stdin.
+    pub path: Option<PathBuf>,
+    /// Size in bytes when known (regular files), for the ETA.
+    pub size: Option<u64>,
+}
+
+/// A byte counter under the read buffer, shared with the pipeline for progress and sizes.
+struct Counting<R> {
+    inner: R,
+    count: Arc<AtomicU64>,
+}
+
+impl<R: Read> Read for Counting<R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.count.fetch_add(n as u64, Ordering::Relaxed);
+        Ok(n)
+    }
+}
+
+/// An input opened and its format known.
+pub struct Opened {
+    /// Index of the input on the command line.
+    pub index: usize,
+    pub format: Format,
+    reader: Box<dyn BufRead + Send>,
+    /// Bytes read from the input so far (a little ahead of what has been parsed).
+    count: Arc<AtomicU64>,
+}
+
+/// Opens input `index` and finds its format (`forced` unless it is [`Format::Auto`]).
+///
+/// # Errors
+/// The file cannot be opened or read (the message names it).
+pub fn open(input: &Input, index: usize, forced: Format) -> Result<Opened, String> {
+    let count = Arc::new(AtomicU64::new(0));
+    let raw: Box<dyn Read + Send> = match &input.path {
+        Some(p) => Box::new(
+            std::fs::File::open(p).map_err(|e| format!("{}: cannot open: {e}", input.name))?,
+        ),
+        None => Box::new(io::stdin()),
+    };
+    let mut reader = BufReader::with_capacity(
+        BUFFER_BYTES,
+        Counting {
+            inner: raw,
+            count: count.clone(),
+        },
+    );
+    let (format, prefix) = if forced == Format::Auto {
+        detect(&mut reader).map_err(|e| format!("{}: cannot read: {e}", input.name))?
+    } else {
+        (forced, Vec::new())
+    };
+    let reader: Box<dyn BufRead + Send> = if prefix.is_empty() {
+        Box::new(reader)
+    } else {
+        Box::new(BufReader::with_capacity(
+            BUFFER_BYTES,
+            Cursor::new(prefix).chain(reader),
+        ))
+    };
+    Ok(Opened {
+        index,
+        format,
+        reader,
+        count,
+    })
+}
+
+fn is_json_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\n' | b'\r')
+}
+
+/// Consumes leading JSON whitespace; true when the input has more after it.
+fn skip_space(r: &mut dyn BufRead) -> io::Result<bool> {
+    loop {
+        let buf = r.fill_buf()?;
+        if buf.is_empty() {
+            return Ok(false);
+        }
+        let n = buf.iter().take_while(|b| is_json_space(**b)).count();
+        let more = n < buf.len();
+        r.consume(n);
+        if more {
+            return Ok(true);
+        }
+    }
+}
+
+/// Finds the format of an input from its start, returning the bytes it consumed beyond
+/// leading whitespace (to be read again).
+///
+/// An empty input is an empty sequence ([`Format::Lines`]): it has no records.
+pub fn detect(r: &mut dyn BufRead) -> io::Result<(Format, Vec<u8>)> {
+    if !skip_space(r)? {
+        return Ok((Format::Lines, Vec::new()));
+    }
+    if r.fill_buf()?[0] == RS {
+        return Ok((Format::Seq, Vec::new()));
+    }
+    let mut first = Vec::new();
+    let n = Read::take(&mut *r, SNIFF_LIMIT).read_until(b'\n', &mut first)?;
+    let complete = first.ends_with(b"\n") || (n as u64) < SNIFF_LIMIT;
+    if !complete {
+        return Ok((Format::Geojson, first));
+    }
+    let format = match serde_json::from_slice::<Value>(&first) {
+        Ok(v) if v.get("type").and_then(Value::as_str) == Some("FeatureCollection") => {
+            Format::Geojson
+        }
+        Ok(_) if skip_space(r)? => Format::Lines,
+        _ => Format::Geojson,
+    };
+    Ok((format, first))
+}
+
+/// Where a record sits in its input.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Position {
+    /// Index of the input on the command line.
+    pub input: usize,
+    /// 1-based record number in the input (for a FeatureCollection, the feature number).
+    pub number: usize,
+    /// 1-based line number of a newline-delimited record.
+    pub line: Option<usize>,
+}
+
+/// What a record holds.
+#[derive(Debug)]
+pub enum Body {
+    /// One JSON text of a sequence, not yet parsed.
+    Text(Vec<u8>),
+    /// One member of a FeatureCollection's `features`, at `pointer` (`/features/3`).
+    Feature { value: Value, pointer: String },
+    /// A whole document that is not a FeatureCollection (Feature, geometry, spline, ...).
+    Document(Value),
+}
+
+/// One unit of work.
+#[derive(Debug)]
+pub struct Record {
+    pub at: Position,
+    pub body: Body,
+    /// Input bytes it took (about, for collection members), for the memory window.
+    pub bytes: usize,
+}
+
+/// What the reader hands on, in input order.
+#[derive(Debug)]
+pub enum Unit {
+    Record(Record),
+    /// Foreign members of a FeatureCollection (`type` and `features` removed).
+    Members(Map<String, Value>),
+}
+
+/// Why reading stopped early.
+#[derive(Debug)]
+pub enum ReadError {
+    /// The consumer stopped (output closed or failed): not an error of the input.
+    Stopped,
+    /// The input cannot be read on: an I/O error or a document that is not valid JSON.
+    Fatal(String),
+}
+
+/// The consumer of units: blocks while the pipeline is full; `Err(())` when it has stopped.
+pub type Emit<'a> = dyn FnMut(Unit, u64) -> Result<(), ()> + 'a;
+
+impl Opened {
+    /// The counter of bytes read from this input, to read after [`Opened::read`] consumed it.
+    pub fn counter(&self) -> Arc<AtomicU64> {
+        self.count.clone()
+    }
+
+    /// Bytes read from this input so far.
+    pub fn bytes_read(&self) -> u64 {
+        self.count.load(Ordering::Relaxed)
+    }
+
+    /// Reads every record, handing each to `emit` together with the input bytes read so far.
+    ///
+    /// # Errors
+    /// [`ReadError::Fatal`] naming the input (and line and column for JSON syntax in a
+    /// document), or [`ReadError::Stopped`].
+    pub fn read(mut self, name: &str, emit: &mut Emit<'_>) -> Result<(), ReadError> {
+        match self.format {
+            Format::Seq => self.read_texts(name, RS, emit),
+            Format::Lines => self.read_texts(name, b'\n', emit),
+            Format::Geojson | Format::Auto => self.read_document(name, emit),
+        }
+    }
+
+    fn read_texts(
+        &mut self,
+        name: &str,
+        delimiter: u8,
+        emit: &mut Emit<'_>,
+    ) -> Result<(), ReadError> {
+        let mut number = 0;
+        let mut line = 1usize;
+        loop {
+            let mut buf = Vec::new();
+            let n = self
+                .reader
+                .read_until(delimiter, &mut buf)
+                .map_err(|e| ReadError::Fatal(format!("{name}: cannot read: {e}")))?;
+            if n == 0 {
+                return Ok(());
+            }
+            let this_line = line;
+            if delimiter == b'\n' {
+                line += 1;
+            }
+            let text = trim_record(&buf);
+            if text.is_empty() {
+                continue;
+            }
+            number += 1;
+            let start = text.as_ptr() as usize - buf.as_ptr() as usize;
+            let len = text.len();
+            buf.truncate(start + len);
+            buf.drain(..start);
+            let unit = Unit::Record(Record {
+                at: Position {
+                    input: self.index,
+                    number,
+                    line: (delimiter == b'\n').then_some(this_line),
+                },
+                body: Body::Text(buf),
+                bytes: n,
+            });
+            emit(unit, self.bytes_read()).map_err(|()| ReadError::Stopped)?;
+        }
+    }
+
+    fn read_document(&mut self, name: &str, emit: &mut Emit<'_>) -> Result<(), ReadError> {
+        let count = self.count.clone();
+        let index = self.index;
+        let mut stopped = false;
+        let mut state = DocumentState {
+            emit,
+            count: &count,
+            last: count.load(Ordering::Relaxed),
+            index,
+            stopped: &mut stopped,
+        };
+        let mut de = serde_json::Deserializer::from_reader(&mut self.reader);
+        let top = TopSeed { state: &mut state }
+            .deserialize(&mut de)
+            .and_then(|top| de.end().map(|()| top));
+        let top = match top {
+            Ok(t) => t,
+            Err(_) if stopped => return Err(ReadError::Stopped),
+            Err(e) => {
+                let hint = if e.to_string().contains("trailing characters") {
+                    " (several JSON texts: use --format lines or --format seq)"
+                } else {
+                    ""
+                };
+                return Err(ReadError::Fatal(format!(
+                    "{name}: not a valid GeoJSON document: {e}{hint}"
+                )));
+            }
+        };
+        match top {
+            Top::Whole(value) => {
+                let unit = Unit::Record(Record {
+                    at: Position {
+                        input: index,
+                        number: 1,
+                        line: None,
+                    },
+                    body: Body::Document(value),
+                    bytes: count.load(Ordering::Relaxed) as usize,
+                });
+                state.emit(unit)
+            }
+            Top::Collection { before, after } => {
+                let kind = before.get("type").or_else(|| after.get("type"));
+                if kind.and_then(Value::as_str) != Some("FeatureCollection") {
+                    return Err(ReadError::Fatal(format!(
+                        "{name}: the document has \"features\" but its \"type\" is {}: expected \"FeatureCollection\"",
+                        kind.map_or("missing".to_string(), Value::to_string)
+                    )));
+                }
+                // The collection's own members are checked as the service checks them.
+                let mut outer: Map<String, Value> = before.clone();
+                outer.extend(after.clone());
+                outer.insert("features".into(), Value::Array(Vec::new()));
+                crate::earth::Document::parse(Value::Object(outer), false)
+                    .map_err(|e| ReadError::Fatal(format!("{name}: {e}")))?;
+                let mut after = after;
+                after.remove("type");
+                state.emit(Unit::Members(after))
+            }
+        }
+    }
+}
+
+/// Strips whitespace and stray record separators around a record.
+fn trim_record(buf: &[u8]) -> &[u8] {
+    let skip = |b: &u8| is_json_space(*b) || *b == RS;
+    let start = buf.iter().position(|b| !skip(b)).unwrap_or(buf.len());
+    let end = buf.iter().rposition(|b| !skip(b)).map_or(start, |i| i + 1);
+    &buf[start..end.max(start)]
+}
+
+/// The reader's side of incremental document parsing.
+struct DocumentState<'s, 'e> {
+    emit: &'s mut Emit<'e>,
+    count: &'s AtomicU64,
+    /// Bytes read when the previous unit was emitted.
+    last: u64,
+    index: usize,
+    stopped: &'s mut bool,
+}
+
+impl DocumentState<'_, '_> {
+    fn emit(&mut self, mut unit: Unit) -> Result<(), ReadError> {
+        let now = self.count.load(Ordering::Relaxed);
+        if let Unit::Record(r) = &mut unit {
+            if !matches!(r.body, Body::Document(_)) {
+                r.bytes = now.saturating_sub(self.last) as usize;
+            }
+        }
+        self.last = now;
+        (self.emit)(unit, now).map_err(|()| {
+            *self.stopped = true;
+            ReadError::Stopped
+        })
+    }
+}
+
+/// The top-level value of a document.
+enum Top {
+    /// A FeatureCollection whose features were handed on while parsing: its other members,
+    /// those before `features` and those after.
+    Collection {
+        before: Map<String, Value>,
+        after: Map<String, Value>,
+    },
+    /// Anything else, whole.
+    Whole(Value),
+}
+
+struct TopSeed<'a, 's, 'e> {
+    state: &'a mut DocumentState<'s, 'e>,
+}
+
+fn stopped<E: de::Error>() -> E {
+    E::custom("output closed")
+}
+
+impl<'de> DeserializeSeed<'de> for TopSeed<'_, '_, '_> {
+    type Value = Top;
+    fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> Result<Top, D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+macro_rules! whole {
+    ($name:ident, $t:ty) => {
+        fn $name<E: de::Error>(self, v: $t) -> Result<Top, E> {
+            Ok(Top::Whole(Value::from(v)))
+        }
+    };
+}
+
+impl<'de> Visitor<'de> for TopSeed<'_, '_, '_> {
+    type Value = Top;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a GeoJSON object")
+    }
+
+    whole!(visit_bool, bool);
+    whole!(visit_i64, i64);
+    whole!(visit_u64, u64);
+    whole!(visit_f64, f64);
+    whole!(visit_str, &str);
+    whole!(visit_string, String);
+
+    fn visit_unit<E: de::Error>(self) -> Result<Top, E> {
+        Ok(Top::Whole(Value::Null))
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Top, A::Error> {
+        Value::deserialize(de::value::SeqAccessDeserializer::new(seq)).map(Top::Whole)
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Top, A::Error> {
+        let mut before = Map::new();
+        let mut after = Map::new();
+        let mut streamed = false;
+        while let Some(key) = map.next_key::<String>()? {
+            let may_be_collection = before
+                .get("type")
+                .is_none_or(|t| t.as_str() == Some("FeatureCollection"));
+            if key == "features" && !streamed && may_be_collection {
+                let mut head = before.clone();
+                head.remove("type");
+                self.state
+                    .emit(Unit::Members(head))
+                    .map_err(|_| stopped::<A::Error>())?;
+                map.next_value_seed(FeaturesSeed {
+                    state: &mut *self.state,
+                })?;
+                streamed = true;
+            } else {
+                let v: Value = map.next_value()?;
+                if streamed {
+                    after.insert(key, v);
+                } else {
+                    before.insert(key, v);
+                }
+            }
+        }
+        Ok(if streamed {
+            Top::Collection { before, after }
+        } else {
+            Top::Whole(Value::Object(before))
+        })
+    }
+}
+
+/// The `features` array, handed on element by element.
+struct FeaturesSeed<'a, 's, 'e> {
+    state: &'a mut DocumentState<'s, 'e>,
+}
+
+impl<'de> DeserializeSeed<'de> for FeaturesSeed<'_, '_, '_> {
+    type Value = ();
+    fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_seq(self)
+    }
+}
+
+impl<'de> Visitor<'de> for FeaturesSeed<'_, '_, '_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("an array of Features")
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        let mut i = 0usize;
+        while let Some(value) = seq.next_element::<Value>()? {
+            let unit = Unit::Record(Record {
+                at: Position {
+                    input: self.state.index,
+                    number: i + 1,
+                    line: None,
+                },
+                body: Body::Feature {
+                    value,
+                    pointer: format!("/features/{i}"),
+                },
+                bytes: 0,
+            });
+            self.state.emit(unit).map_err(|_| stopped::<A::Error>())?;
+            i += 1;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn detect_str(s: &str) -> Format {
+        let mut r = io::Cursor::new(s.as_bytes().to_vec());
+        detect(&mut r).unwrap().0
+    }
+
+    #[test]
+    fn formats_are_told_apart_from_the_start() {
+        let f = r#"{"type":"Feature","properties":null,"geometry":null}"#;
+        assert_eq!(detect_str(&format!("\x1e{f}\n\x1e{f}\n")), Format::Seq);
+        assert_eq!(detect_str(&format!("  \n\x1e{f}\n")), Format::Seq);
+        assert_eq!(detect_str(&format!("{f}\n{f}\n")), Format::Lines);
+        assert_eq!(detect_str(&format!("{f}\n")), Format::Geojson);
+        assert_eq!(
+            detect_str("{\n  \"type\": \"FeatureCollection\",\n  \"features\": []\n}\n"),
+            Format::Geojson
+        );
+        assert_eq!(
+            detect_str(r#"{"type":"FeatureCollection","features":[]}"#),
+            Format::Geojson
+        );
+        assert_eq!(detect_str(" \n "), Format::Lines);
+    }
+
+    fn collect(text: &str, format: Format) -> (Vec<Unit>, Result<(), ReadError>) {
+        let opened = Opened {
+            index: 0,
+            format,
+            reader: Box::new(io::Cursor::new(text.as_bytes().to_vec())),
+            count: Arc::new(AtomicU64::new(0)),
+        };
+        let mut units = Vec::new();
+        let r = opened.read("t", &mut |u, _| {
+            units.push(u);
+            Ok(())
+        });
+        (units, r)
+    }
+
+    #[test]
+    fn a_collection_is_handed_on_feature_by_feature_with_its_members() {
+        let doc =
+            r#"{"name":"n","type":"FeatureCollection","features":[{"a":1},{"b":2}],"crs":{"x":1}}"#;
+        let (units, r) = collect(doc, Format::Geojson);
+        r.unwrap();
+        assert_eq!(units.len(), 4);
+        assert!(matches!(&units[0], Unit::Members(m) if m.len() == 1 && m["name"] == "n"));
+        match &units[2] {
+            Unit::Record(Record {
+                at,
+                body: Body::Feature { value, pointer },
+                ..
+            }) => {
+                assert_eq!((at.number, pointer.as_str()), (2, "/features/1"));
+                assert_eq!(value["b"], 2);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(&units[3], Unit::Members(m) if m.len() == 1 && m["crs"]["x"] == 1));
+    }
+
+    #[test]
+    fn other_documents_are_one_record_and_bad_json_is_fatal() {
+        let (units, r) = collect(r#"[1, 2]"#, Format::Geojson);
+        r.unwrap();
+        assert!(
+            matches!(&units[0], Unit::Record(Record { body: Body::Document(v), .. }) if v.is_array())
+        );
+        let (_, r) = collect(
+            r#"{"type":"FeatureCollection","features":[{"a":1},"#,
+            Format::Geojson,
+        );
+        assert!(matches!(r, Err(ReadError::Fatal(m)) if m.contains("EOF")));
+        let (_, r) = collect("{\"a\":1}\n{\"b\":2}\n", Format::Geojson);
+        assert!(matches!(r, Err(ReadError::Fatal(m)) if m.contains("--format lines")));
+        // A Feature may have a foreign member "features"; once "type" says so, it is kept whole.
+        let (units, r) = collect(r#"{"type":"Feature","features":[1]}"#, Format::Geojson);
+        r.unwrap();
+        assert!(
+            matches!(&units[..], [Unit::Record(Record { body: Body::Document(v), .. })] if v["features"][0] == 1)
+        );
+        let (_, r) = collect(r#"{"features":[],"type":"Feature"}"#, Format::Geojson);
+        assert!(
+            matches!(r, Err(ReadError::Fatal(m)) if m.contains("expected \"FeatureCollection\""))
+        );
+    }
+
+    #[test]
+    fn sequences_split_into_numbered_texts() {
+        let (units, r) = collect(
+            "\x1e{\"a\":1}\n\x1e{\"a\":\n2}\n\x1e\n\x1e{bad\n",
+            Format::Seq,
+        );
+        r.unwrap();
+        let texts: Vec<(usize, String)> = units
+            .iter()
+            .map(|u| match u {
+                Unit::Record(Record {
+                    at,
+                    body: Body::Text(t),
+                    ..
+                }) => (at.number, String::from_utf8(t.clone()).unwrap()),
+                other => panic!("{other:?}"),
+            })
+            .collect();
+        assert_eq!(
+            texts,
+            vec![
+                (1, "{\"a\":1}".to_string()),
+                (2, "{\"a\":\n2}".to_string()),
+                (3, "{bad".to_string())
+            ]
+        );
+        let (units, _) = collect("{\"a\":1}\n\n{\"a\":2}\r\n", Format::Lines);
+        let lines: Vec<Option<usize>> = units
+            .iter()
+            .map(|u| match u {
+                Unit::Record(r) => r.at.line,
+                _ => None,
+            })
+            .collect();
+        assert_eq!(lines, vec![Some(1), Some(3)]);
+    }
+}

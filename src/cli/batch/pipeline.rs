@@ -1,0 +1,562 @@
+//! The streaming pipeline: one reader thread, the rayon pool, one writer (the calling thread).
+//!
+//! ```text
+//! reader thread --(window)--> rayon::spawn(parse + process + serialise) --channel--> writer
+//! ```
+//!
+//! * **Memory bound.** The reader numbers each unit and must take a place in the [`Window`]
+//!   before handing it on; the writer gives the place back once the unit's output is written.
+//!   So at most `16 x threads` units (at least 32) (and about [`WINDOW_BYTES`] of their input) are
+//!   anywhere between reading and writing: queued, being processed, or finished and waiting
+//!   for an earlier one. Memory does not grow with the input; only the largest single record
+//!   matters (one record always gets in, however large).
+//! * **Order.** Workers finish in any order; the writer keeps finished units in a map keyed by
+//!   their number and writes them strictly in input order, so output records and error
+//!   messages come in input order.
+//! * **Stopping.** When the output closes (a broken pipe) or fails, the writer closes the
+//!   window: the reader's next wait fails and it stops reading, and queued workers skip their
+//!   work.
+
+use super::input::{Body, Format, Input, Opened, Position, ReadError, Unit, RS};
+use crate::earth::{process_feature, Document, EarthError, FeatureStats, Job, ProcessedFeature};
+use serde_json::{Map, Value};
+use std::collections::BTreeMap;
+use std::io::{self, Write};
+use std::sync::mpsc;
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::{Duration, Instant};
+
+/// Input bytes allowed in flight at once (one record always gets in). 64 MiB keeps the peak
+/// well under the 300 MB goal even when output is many times larger than input.
+pub const WINDOW_BYTES: usize = 64 << 20;
+
+/// Units in flight per worker thread: enough that a slow feature does not starve the pool
+/// while the writer waits for it.
+const UNITS_PER_THREAD: usize = 16;
+
+/// Places for units between the reader and the writer.
+pub struct Window {
+    state: Mutex<WindowState>,
+    changed: Condvar,
+    max_units: usize,
+    max_bytes: usize,
+}
+
+#[derive(Default)]
+struct WindowState {
+    units: usize,
+    bytes: usize,
+    closed: bool,
+}
+
+impl Window {
+    /// A window for `threads` workers.
+    pub fn new(threads: usize) -> Window {
+        Window {
+            state: Mutex::new(WindowState::default()),
+            changed: Condvar::new(),
+            max_units: (UNITS_PER_THREAD * threads).max(32),
+            max_bytes: WINDOW_BYTES,
+        }
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, WindowState> {
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Waits for a place for a unit of `bytes`; `Err` once the window is closed.
+    pub fn enter(&self, bytes: usize) -> Result<(), ()> {
+        let mut s = self.lock();
+        while !s.closed
+            && s.units > 0
+            && (s.units >= self.max_units || s.bytes + bytes > self.max_bytes)
+        {
+            s = self.changed.wait(s).unwrap_or_else(|p| p.into_inner());
+        }
+        if s.closed {
+            return Err(());
+        }
+        s.units += 1;
+        s.bytes += bytes;
+        Ok(())
+    }
+
+    /// Gives back the place of a unit of `bytes`.
+    pub fn leave(&self, bytes: usize) {
+        let mut s = self.lock();
+        s.units -= 1;
+        s.bytes -= bytes;
+        self.changed.notify_all();
+    }
+
+    /// Closes the window: waiting and later [`Window::enter`] calls fail.
+    pub fn close(&self) {
+        self.lock().closed = true;
+        self.changed.notify_all();
+    }
+
+    fn is_closed(&self) -> bool {
+        self.lock().closed
+    }
+}
+
+/// What a worker made of one record.
+#[derive(Debug, Default)]
+pub struct Processed {
+    /// Output features, serialised.
+    pub features: Vec<Vec<u8>>,
+    /// Counters over the record's features.
+    pub stats: FeatureStats,
+    /// Features with at least one curve.
+    pub with_curves: usize,
+    /// Messages for the features that failed (one each), with the record's position.
+    pub errors: Vec<String>,
+    /// Largest max error of a feature and its label.
+    pub worst: Option<(f64, String)>,
+}
+
+/// A record's label in messages: `in.geojsons: record 3` (`(line 5)` for newline-delimited).
+pub fn label(names: &[String], at: &Position) -> String {
+    let name = &names[at.input];
+    match at.line {
+        Some(l) if l != at.number => format!("{name}: record {} (line {l})", at.number),
+        _ => format!("{name}: record {}", at.number),
+    }
+}
+
+/// Parses (when needed), processes and serialises one record.
+pub fn process(
+    body: Body,
+    at: &Position,
+    names: &[String],
+    job: &Job,
+    allow_spline: bool,
+) -> Processed {
+    let mut out = Processed::default();
+    let label = label(names, at);
+    match body {
+        Body::Text(bytes) => match serde_json::from_slice::<Value>(&bytes) {
+            Ok(v) => out.document(v, &label, job, allow_spline),
+            Err(e) => out.errors.push(format!("{label}: invalid JSON: {e}")),
+        },
+        Body::Document(v) => out.document(v, &label, job, allow_spline),
+        Body::Feature { value, pointer } => {
+            out.add(process_feature(&value, &pointer, job), &label);
+        }
+    }
+    out
+}
+
+impl Processed {
+    /// Processes every feature of a parsed record.
+    fn document(&mut self, v: Value, label: &str, job: &Job, allow_spline: bool) {
+        match Document::parse(v, allow_spline) {
+            Ok(doc) => {
+                for slot in &doc.slots {
+                    self.add(slot.process(job), label);
+                }
+            }
+            Err(e) => self.errors.push(format!("{label}: {e}")),
+        }
+    }
+
+    /// Adds the result of one feature.
+    fn add(&mut self, r: Result<ProcessedFeature, EarthError>, label: &str) {
+        let p = match r {
+            Ok(p) => p,
+            Err(e) => return self.errors.push(format!("{label}: {e}")),
+        };
+        match serde_json::to_vec(&p.feature) {
+            Ok(bytes) => self.features.push(bytes),
+            Err(e) => return self.errors.push(format!("{label}: cannot serialise: {e}")),
+        }
+        if p.stats.curves > 0 {
+            self.with_curves += 1;
+            if self
+                .worst
+                .as_ref()
+                .is_none_or(|(e, _)| p.stats.max_error_m > *e)
+            {
+                self.worst = Some((p.stats.max_error_m, label.to_string()));
+            }
+        }
+        self.stats.merge(&p.stats);
+    }
+}
+
+/// Frames serialised features in the output format.
+pub struct Sink<W: Write> {
+    out: W,
+    format: Format,
+    started: bool,
+    head: Map<String, Value>,
+    tail: Map<String, Value>,
+}
+
+impl<W: Write> Sink<W> {
+    /// A sink writing `format` (not [`Format::Auto`]) to `out`.
+    pub fn new(out: W, format: Format) -> Sink<W> {
+        Sink {
+            out,
+            format,
+            started: false,
+            head: Map::new(),
+            tail: Map::new(),
+        }
+    }
+
+    /// Foreign members of an input collection, kept when writing a FeatureCollection (the
+    /// first value of a name wins; `bbox` is dropped, as the service drops it).
+    pub fn members(&mut self, members: Map<String, Value>) {
+        for (k, v) in members {
+            if k == "bbox" || k == "type" || k == "features" || self.head.contains_key(&k) {
+                continue;
+            }
+            let target = if self.started {
+                &mut self.tail
+            } else {
+                &mut self.head
+            };
+            target.entry(k).or_insert(v);
+        }
+    }
+
+    fn write_members(&mut self, members: &Map<String, Value>, after: bool) -> io::Result<()> {
+        for (k, v) in members {
+            if after {
+                self.out.write_all(b",")?;
+            }
+            serde_json::to_writer(&mut self.out, k)?;
+            self.out.write_all(b":")?;
+            serde_json::to_writer(&mut self.out, v)?;
+            if !after {
+                self.out.write_all(b",")?;
+            }
+        }
+        Ok(())
+    }
+
+    fn start(&mut self) -> io::Result<()> {
+        self.started = true;
+        self.out.write_all(b"{\"type\":\"FeatureCollection\",")?;
+        let head = std::mem::take(&mut self.head);
+        self.write_members(&head, false)?;
+        self.head = head;
+        self.out.write_all(b"\"features\":[\n")
+    }
+
+    /// Writes one serialised feature.
+    pub fn feature(&mut self, json: &[u8]) -> io::Result<()> {
+        match self.format {
+            Format::Seq => {
+                self.out.write_all(&[RS])?;
+                self.out.write_all(json)?;
+                self.out.write_all(b"\n")
+            }
+            Format::Geojson | Format::Auto => {
+                if self.started {
+                    self.out.write_all(b",\n")?;
+                } else {
+                    self.start()?;
+                }
+                self.out.write_all(json)
+            }
+            Format::Lines => {
+                self.out.write_all(json)?;
+                self.out.write_all(b"\n")
+            }
+        }
+    }
+
+    /// Ends the output (closes the FeatureCollection) and flushes.
+    pub fn finish(&mut self) -> io::Result<()> {
+        if matches!(self.format, Format::Geojson | Format::Auto) {
+            if !self.started {
+                self.start()?;
+                self.out.write_all(b"]")?;
+            } else {
+                self.out.write_all(b"\n]")?;
+            }
+            let tail = std::mem::take(&mut self.tail);
+            self.write_members(&tail, true)?;
+            self.out.write_all(b"}\n")?;
+        }
+        self.out.flush()
+    }
+
+    /// Flushes what is buffered.
+    pub fn flush(&mut self) -> io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// Totals of a run.
+#[derive(Debug, Default)]
+pub struct Totals {
+    /// Input records read (for a FeatureCollection, its features).
+    pub records: usize,
+    /// Features written.
+    pub features: usize,
+    /// Features written that had curves.
+    pub with_curves: usize,
+    /// Features (or records) that failed.
+    pub failed: usize,
+    pub stats: FeatureStats,
+    /// Largest max error and where.
+    pub worst: Option<(f64, String)>,
+    /// The output was closed by its reader (a broken pipe): the run stopped early.
+    pub output_closed: bool,
+}
+
+/// How the writer reports progress.
+pub trait Progress {
+    /// Called after each written unit and a few times a second while waiting; `bytes` is the
+    /// input read up to the last written unit.
+    fn update(&mut self, totals: &Totals, bytes: u64);
+    /// Called before a message is printed and at the end, to clear the line.
+    fn clear(&mut self);
+}
+
+/// What the writer receives for each numbered unit.
+enum Done {
+    Record {
+        processed: Processed,
+        bytes: usize,
+        offset: u64,
+    },
+    Members(Map<String, Value>),
+}
+
+/// Everything [`run`] needs besides the inputs.
+pub struct Settings {
+    pub job: Arc<Job>,
+    pub allow_spline: bool,
+    /// Input names, by index.
+    pub names: Arc<Vec<String>>,
+    /// Forced input format ([`Format::Auto`] to detect each input).
+    pub input_format: Format,
+}
+
+/// Why [`run`] ended badly.
+#[derive(Debug)]
+pub enum Fatal {
+    /// An input could not be read on (the message names it).
+    Input(String),
+    /// The output could not be written.
+    Output(io::Error),
+}
+
+/// Runs the pipeline over `first` (already opened) and the `rest` of the inputs, writing to
+/// `sink`. Per-record errors go to `errors` in input order. Returns the totals and the first
+/// fatal error, if any (records before it are written and the output is still closed
+/// properly).
+pub fn run<W: Write>(
+    first: Opened,
+    rest: Vec<(usize, Input)>,
+    sink: &mut Sink<W>,
+    settings: &Settings,
+    progress: &mut dyn Progress,
+    errors: &mut dyn FnMut(&str),
+) -> (Totals, Option<Fatal>) {
+    let window = Arc::new(Window::new(rayon::current_num_threads()));
+    let (tx, rx) = mpsc::channel::<(u64, Done)>();
+    let reader = {
+        let window = window.clone();
+        let job = settings.job.clone();
+        let names = settings.names.clone();
+        let allow_spline = settings.allow_spline;
+        let forced = settings.input_format;
+        std::thread::Builder::new()
+            .name("spherefit-reader".into())
+            .spawn(move || {
+                read_all(
+                    first,
+                    rest,
+                    forced,
+                    &window,
+                    &tx,
+                    &job,
+                    &names,
+                    allow_spline,
+                )
+            })
+    };
+    let reader = match reader {
+        Ok(r) => r,
+        Err(e) => {
+            return (
+                Totals::default(),
+                Some(Fatal::Input(format!("cannot start the reader: {e}"))),
+            )
+        }
+    };
+
+    let mut totals = Totals::default();
+    let mut fatal = None;
+    let mut pending: BTreeMap<u64, Done> = BTreeMap::new();
+    let mut next = 0u64;
+    let mut offset = 0u64;
+    let tick = Duration::from_millis(200);
+    let mut last_tick = Instant::now();
+    'outer: loop {
+        let (n, done) = match rx.try_recv() {
+            Ok(x) => x,
+            Err(mpsc::TryRecvError::Disconnected) => break,
+            Err(mpsc::TryRecvError::Empty) => {
+                // Nothing ready: let what is written so far reach the reader of the output.
+                if let Err(e) = sink.flush() {
+                    fatal = output_error(e, &mut totals);
+                    break;
+                }
+                loop {
+                    match rx.recv_timeout(tick) {
+                        Ok(x) => break x,
+                        Err(mpsc::RecvTimeoutError::Timeout) => {
+                            progress.update(&totals, offset);
+                            last_tick = Instant::now();
+                        }
+                        Err(mpsc::RecvTimeoutError::Disconnected) => break 'outer,
+                    }
+                }
+            }
+        };
+        pending.insert(n, done);
+        while let Some(done) = pending.remove(&next) {
+            next += 1;
+            match done {
+                Done::Members(m) => {
+                    sink.members(m);
+                    window.leave(0);
+                }
+                Done::Record {
+                    processed,
+                    bytes,
+                    offset: o,
+                } => {
+                    totals.records += 1;
+                    offset = o;
+                    if !processed.errors.is_empty() {
+                        progress.clear();
+                        for e in &processed.errors {
+                            errors(e);
+                        }
+                    }
+                    totals.failed += processed.errors.len();
+                    totals.with_curves += processed.with_curves;
+                    totals.stats.merge(&processed.stats);
+                    if let Some((e, at)) = processed.worst {
+                        if totals.worst.as_ref().is_none_or(|(w, _)| e > *w) {
+                            totals.worst = Some((e, at));
+                        }
+                    }
+                    for f in &processed.features {
+                        if let Err(e) = sink.feature(f) {
+                            fatal = output_error(e, &mut totals);
+                            break 'outer;
+                        }
+                        totals.features += 1;
+                    }
+                    window.leave(bytes);
+                }
+            }
+        }
+        if last_tick.elapsed() >= tick {
+            progress.update(&totals, offset);
+            last_tick = Instant::now();
+        }
+    }
+    window.close();
+    drop(rx);
+    if fatal.is_none() && !totals.output_closed {
+        if let Err(e) = sink.finish() {
+            fatal = output_error(e, &mut totals);
+        }
+    }
+    progress.clear();
+    if fatal.is_some() || totals.output_closed {
+        // The reader may be blocked reading (a terminal, a slow pipe): it stops at its next
+        // record, or with the process; its errors no longer matter.
+        return (totals, fatal);
+    }
+    let read = reader
+        .join()
+        .unwrap_or_else(|_| Err(ReadError::Fatal("the reader thread panicked".into())));
+    if let Err(ReadError::Fatal(m)) = read {
+        fatal = Some(Fatal::Input(m));
+    }
+    (totals, fatal)
+}
+
+/// A broken pipe ends the run quietly; any other write error is fatal.
+fn output_error(e: io::Error, totals: &mut Totals) -> Option<Fatal> {
+    if e.kind() == io::ErrorKind::BrokenPipe {
+        totals.output_closed = true;
+        None
+    } else {
+        Some(Fatal::Output(e))
+    }
+}
+
+/// The reader thread: opens the inputs in turn and hands every unit to the pool.
+#[allow(clippy::too_many_arguments)]
+fn read_all(
+    first: Opened,
+    rest: Vec<(usize, Input)>,
+    forced: Format,
+    window: &Arc<Window>,
+    tx: &mpsc::Sender<(u64, Done)>,
+    job: &Arc<Job>,
+    names: &Arc<Vec<String>>,
+    allow_spline: bool,
+) -> Result<(), ReadError> {
+    let mut n = 0u64;
+    let mut emit = |unit: Unit, read: u64, base: u64| -> Result<(), ()> {
+        let bytes = match &unit {
+            Unit::Record(r) => r.bytes,
+            Unit::Members(_) => 0,
+        };
+        window.enter(bytes)?;
+        let this = n;
+        n += 1;
+        match unit {
+            Unit::Members(m) => tx.send((this, Done::Members(m))).map_err(|_| ()),
+            Unit::Record(r) => {
+                let (tx, job, names, window) =
+                    (tx.clone(), job.clone(), names.clone(), window.clone());
+                let offset = base + read;
+                rayon::spawn(move || {
+                    let processed = if window.is_closed() {
+                        Processed::default()
+                    } else {
+                        process(r.body, &r.at, &names, &job, allow_spline)
+                    };
+                    let _ = tx.send((
+                        this,
+                        Done::Record {
+                            processed,
+                            bytes,
+                            offset,
+                        },
+                    ));
+                });
+                Ok(())
+            }
+        }
+    };
+    let mut base = 0u64;
+    let mut opened = first;
+    let mut rest = rest.into_iter();
+    loop {
+        let counter = opened.counter();
+        let name = names[opened.index].clone();
+        let start = base;
+        opened.read(&name, &mut |u, read| emit(u, read, start))?;
+        base += counter.load(std::sync::atomic::Ordering::Relaxed);
+        match rest.next() {
+            None => return Ok(()),
+            Some((index, input)) => {
+                opened = super::input::open(&input, index, forced).map_err(ReadError::Fatal)?;
+            }
+        }
+    }
+}

@@ -1,0 +1,145 @@
+//! `spherefit serve`: the HTTP service. Every flag has a `SPHEREFIT_*` environment variable;
+//! a flag given on the command line wins.
+
+use super::Failure;
+use crate::earth::Limits;
+use crate::service::{self, AppState, ServiceConfig};
+use clap::{Args, ValueEnum};
+use std::net::SocketAddr;
+use std::time::Duration;
+
+#[derive(Debug, Args)]
+pub(crate) struct ServeArgs {
+    /// Address to listen on (use 0.0.0.0:8080 to listen on every interface, e.g. in a container)
+    #[arg(long, env = "SPHEREFIT_ADDR", default_value = "127.0.0.1:8080")]
+    addr: SocketAddr,
+    /// Largest request body, in bytes; larger bodies get 413
+    #[arg(long, env = "SPHEREFIT_MAX_BODY_BYTES", default_value_t = 16 * 1024 * 1024)]
+    max_body_bytes: usize,
+    /// Most input positions per request; more get 413
+    #[arg(long, env = "SPHEREFIT_MAX_POINTS", default_value_t = 1_000_000)]
+    max_points: usize,
+    /// Most output positions per request; more get 422
+    #[arg(long, env = "SPHEREFIT_MAX_OUTPUT_POINTS", default_value_t = 5_000_000)]
+    max_output_points: usize,
+    /// Most control points per curve; more get 422
+    #[arg(long, env = "SPHEREFIT_MAX_CONTROL_POINTS", default_value_t = 10_000)]
+    max_control_points: usize,
+    /// Most output points per curve (samples, or what spacing_m needs); more get 422
+    #[arg(long, env = "SPHEREFIT_MAX_SAMPLES", default_value_t = 100_000)]
+    max_samples: usize,
+    /// Most GLS-PIA iterations per fit; more get 422
+    #[arg(long, env = "SPHEREFIT_MAX_ITERATIONS", default_value_t = 1_000)]
+    max_iterations: usize,
+    /// Time budget of one request, in seconds; past it the request gets 503 with Retry-After
+    #[arg(long, env = "SPHEREFIT_TIMEOUT_S", default_value_t = 30.0)]
+    timeout_s: f64,
+    /// Requests doing CPU work at once [default: the number of CPUs]
+    #[arg(long, env = "SPHEREFIT_FIT_CONCURRENCY")]
+    fit_concurrency: Option<usize>,
+    /// Requests that may wait for a CPU slot; past that, 503 with Retry-After
+    #[arg(long, env = "SPHEREFIT_FIT_QUEUE", default_value_t = 64)]
+    fit_queue: usize,
+    /// Requests of any kind in flight at once; past that, 503 with Retry-After
+    #[arg(long, env = "SPHEREFIT_MAX_IN_FLIGHT", default_value_t = 1024)]
+    max_in_flight: usize,
+    /// Log format on stderr: auto (text on a terminal, JSON otherwise), text or json.
+    /// The level comes from RUST_LOG (default info)
+    #[arg(long, env = "SPHEREFIT_LOG_FORMAT", value_enum, default_value_t = LogFormat::Auto)]
+    log_format: LogFormat,
+    /// Stop by itself after this many seconds (for scripts and tests) [default: run until
+    /// SIGINT or SIGTERM]
+    #[arg(long, env = "SPHEREFIT_EXIT_AFTER_S")]
+    exit_after_s: Option<f64>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum LogFormat {
+    Auto,
+    Text,
+    Json,
+}
+
+impl ServeArgs {
+    fn config(&self) -> Result<ServiceConfig, Failure> {
+        if !(self.timeout_s.is_finite() && self.timeout_s > 0.0) {
+            return Err(Failure::input("--timeout-s must be a positive number"));
+        }
+        let d = ServiceConfig::default();
+        Ok(ServiceConfig {
+            max_body_bytes: self.max_body_bytes,
+            max_points: self.max_points,
+            max_output_points: self.max_output_points,
+            limits: Limits {
+                max_control_points: self.max_control_points,
+                max_samples: self.max_samples,
+                max_iterations: self.max_iterations,
+            },
+            request_timeout: Duration::from_secs_f64(self.timeout_s),
+            fit_concurrency: self.fit_concurrency.unwrap_or(d.fit_concurrency).max(1),
+            fit_queue: self.fit_queue,
+            max_in_flight: self.max_in_flight.max(1),
+        })
+    }
+}
+
+fn init_logging(format: LogFormat) {
+    use std::io::IsTerminal;
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let json = match format {
+        LogFormat::Json => true,
+        LogFormat::Text => false,
+        LogFormat::Auto => !std::io::stderr().is_terminal(),
+    };
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr);
+    // `try_init`: a second call (tests) keeps the first subscriber.
+    let _ = if json {
+        builder.json().try_init()
+    } else {
+        builder.try_init()
+    };
+}
+
+pub(crate) fn run(args: ServeArgs) -> Result<(), Failure> {
+    let config = args.config()?;
+    init_logging(args.log_format);
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| Failure::input(format!("cannot start the async runtime: {e}")))?;
+    let exit_after = args.exit_after_s.map(Duration::from_secs_f64);
+    runtime.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(args.addr)
+            .await
+            .map_err(|e| Failure::input(format!("cannot listen on {}: {e}", args.addr)))?;
+        let local = listener.local_addr().map_err(|e| Failure::input(e.to_string()))?;
+        tracing::info!(
+            addr = %local,
+            fit_concurrency = config.fit_concurrency,
+            fit_queue = config.fit_queue,
+            max_body_bytes = config.max_body_bytes,
+            max_points = config.max_points,
+            timeout_s = config.request_timeout.as_secs_f64(),
+            "spherefit listening"
+        );
+        let shutdown = async move {
+            match exit_after {
+                Some(d) => {
+                    tokio::select! {
+                        _ = service::shutdown_signal() => {}
+                        _ = tokio::time::sleep(d) => tracing::info!("exit-after-s reached, shutting down"),
+                    }
+                }
+                None => service::shutdown_signal().await,
+            }
+        };
+        service::serve(listener, AppState::new(config), shutdown)
+            .await
+            .map_err(|e| Failure::input(format!("server error: {e}")))?;
+        tracing::info!("stopped");
+        Ok(())
+    })
+}

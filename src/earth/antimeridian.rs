@@ -1,0 +1,455 @@
+//! Lon/lat output of curves on the sphere: lines cut at the antimeridian and polygons split
+//! there, as RFC 7946 section 3.1.9 asks.
+//!
+//! On the sphere nothing is special at ±180 degrees or at the poles: curves are fitted and
+//! sampled as unit vectors. Only the conversion back to lon/lat needs care:
+//!
+//! * [`cut_line`]: a polyline whose segment crosses the antimeridian (the half-plane `y = 0,
+//!   x < 0`) is cut there; the crossing latitude is where the great-circle segment meets the
+//!   antimeridian, and both pieces get that vertex (at +180 on one side, -180 on the other). A
+//!   segment passing a pole on the prime-meridian side, whose longitudes are more than 180
+//!   degrees apart, gets its lon = 0 crossing inserted. So no output segment spans more than 180
+//!   degrees of longitude.
+//! * [`split_polygon`]: rings are unwrapped to continuous longitudes; a polygon that leaves
+//!   [-180, 180] is clipped into the strips [-540, -180], [-180, 180] and [180, 540], shifted
+//!   back, and returned as several polygons. A ring that winds once around a pole is closed
+//!   along that pole (the pole on the side of the ring's mean latitude) before clipping.
+//!   Clipping uses `geo`'s boolean operations, whose integer grid snaps the vertices of a split
+//!   polygon by at most (polygon width in degrees) / 2^29 degrees (under 5 cm for any polygon).
+//!
+//! Positions are `[lon_deg, lat_deg, alt]`; the altitude is interpolated at new vertices and
+//! ignored by callers that have none.
+
+use super::lonlat::unit_to_lonlat;
+use geo::{BooleanOps, Coord, LineString, MultiPolygon, Polygon, Rect};
+
+/// A position `[lon_deg, lat_deg, altitude]` (the altitude is meaningless when the data have
+/// none).
+pub type Position = [f64; 3];
+
+fn side(y: f64) -> i8 {
+    if y > 0.0 {
+        1
+    } else if y < 0.0 {
+        -1
+    } else {
+        0
+    }
+}
+
+fn normalize3(v: [f64; 3]) -> [f64; 3] {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if n == 0.0 {
+        v
+    } else {
+        [v[0] / n, v[1] / n, v[2] / n]
+    }
+}
+
+fn angle3(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    crate::sphere::point::angle_between(a, b)
+}
+
+/// Where the great-circle segment `a -> b` meets the plane `y = 0`, for `a.y` and `b.y` of
+/// opposite signs, and the fraction of the segment's length at which it does.
+fn y_crossing(a: &[f64; 3], b: &[f64; 3]) -> ([f64; 3], f64) {
+    let (wa, wb) = (b[1].abs(), a[1].abs());
+    let mut c = normalize3([wa * a[0] + wb * b[0], 0.0, wa * a[2] + wb * b[2]]);
+    c[1] = 0.0;
+    let total = angle3(a, b);
+    let f = if total > 0.0 {
+        (angle3(a, &c) / total).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (c, f)
+}
+
+fn lat_of(c: &[f64; 3]) -> f64 {
+    c[2].atan2(c[0].hypot(c[1])).to_degrees().clamp(-90.0, 90.0)
+}
+
+/// Converts a polyline of unit vectors (with an altitude per vertex, or zeros) to lon/lat
+/// pieces cut at the antimeridian. Returns at least one piece for non-empty input.
+pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
+    debug_assert_eq!(points.len(), alts.len());
+    let mut parts: Vec<Vec<Position>> = Vec::new();
+    let mut current: Vec<Position> = Vec::with_capacity(points.len());
+    // Sign of y of the current piece (0 until a point off the plane y = 0 is seen).
+    let mut piece_side: i8 = 0;
+    for i in 0..points.len() {
+        let b = &points[i];
+        let sb = side(b[1]);
+        if i > 0 {
+            let a = &points[i - 1];
+            let sa = side(a[1]);
+            if sa != 0 && sb != 0 && sa != sb {
+                let (c, f) = y_crossing(a, b);
+                let alt = alts[i - 1] + f * (alts[i] - alts[i - 1]);
+                if c[0] < 0.0 {
+                    let lon_end = if sa > 0 { 180.0 } else { -180.0 };
+                    let lat = lat_of(&c);
+                    current.push([lon_end, lat, alt]);
+                    parts.push(std::mem::take(&mut current));
+                    current.push([-lon_end, lat, alt]);
+                    piece_side = sb;
+                } else {
+                    let (lon_a, _) = unit_to_lonlat(a);
+                    let (lon_b, _) = unit_to_lonlat(b);
+                    if (lon_a - lon_b).abs() > 180.0 {
+                        current.push([0.0, lat_of(&c), alt]);
+                    }
+                }
+            } else if sa == 0 && sb != 0 && piece_side != 0 && sb != piece_side && a[0] < 0.0 {
+                // The line touched the antimeridian at `a` and now continues on the other side.
+                let last = *current.last().expect("a was pushed");
+                parts.push(std::mem::take(&mut current));
+                current.push([-last[0], last[1], last[2]]);
+            }
+        }
+        if sb != 0 {
+            piece_side = sb;
+        }
+        let (mut lon, lat) = unit_to_lonlat(b);
+        if sb == 0 && b[0] < 0.0 {
+            // On the antimeridian: take the side of the piece, or of the next point off it.
+            let s = if piece_side != 0 {
+                piece_side
+            } else {
+                points[i + 1..]
+                    .iter()
+                    .map(|p| side(p[1]))
+                    .find(|&s| s != 0)
+                    .unwrap_or(1)
+            };
+            lon = 180.0 * f64::from(s);
+        }
+        current.push([lon, lat, alts[i]]);
+    }
+    if !current.is_empty() {
+        parts.push(current);
+    }
+    parts
+}
+
+/// A closed ring of unit vectors (first = last) with an altitude per vertex.
+#[derive(Clone, Debug)]
+pub struct SphereRing {
+    pub points: Vec<[f64; 3]>,
+    pub alts: Vec<f64>,
+}
+
+/// Longitudes of a ring made continuous (each step taken the short way round).
+fn unwrap_ring(ring: &SphereRing) -> Vec<Position> {
+    let mut out: Vec<Position> = Vec::with_capacity(ring.points.len());
+    for (p, &alt) in ring.points.iter().zip(&ring.alts) {
+        let (lon, lat) = unit_to_lonlat(p);
+        let lon = match out.last() {
+            None => lon,
+            Some(prev) => {
+                let mut d = lon - prev[0];
+                d -= 360.0 * (d / 360.0).round();
+                prev[0] + d
+            }
+        };
+        out.push([lon, lat, alt]);
+    }
+    out
+}
+
+/// Converts a polygon (exterior ring first, then holes) to lon/lat polygons split at the
+/// antimeridian: one polygon when it does not leave [-180, 180], several otherwise.
+///
+/// # Errors
+/// When the boolean operation that splits the polygon fails (it panicked on degenerate input
+/// in some versions of the `geo` stack); the message says so.
+pub fn split_polygon(rings: &[SphereRing]) -> Result<Vec<Vec<Vec<Position>>>, String> {
+    if rings.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut unwrapped: Vec<Vec<Position>> = rings.iter().map(unwrap_ring).collect();
+    // Close a ring that winds around a pole along that pole.
+    for ring in unwrapped.iter_mut() {
+        let (first, last) = (ring[0], ring[ring.len() - 1]);
+        let winding = last[0] - first[0];
+        if winding.abs() > 180.0 {
+            let mean_lat = ring.iter().map(|p| p[1]).sum::<f64>() / ring.len() as f64;
+            let pole = if mean_lat >= 0.0 { 90.0 } else { -90.0 };
+            ring.push([last[0], pole, last[2]]);
+            ring.push([first[0], pole, first[2]]);
+            ring.push(first);
+        }
+    }
+    // Put holes next to the exterior (a hole may have been unwrapped 360 degrees away).
+    let centre = {
+        let ext = &unwrapped[0];
+        let (lo, hi) = ext
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p[0]), hi.max(p[0]))
+            });
+        0.5 * (lo + hi)
+    };
+    for ring in unwrapped.iter_mut().skip(1) {
+        let mean = ring.iter().map(|p| p[0]).sum::<f64>() / ring.len() as f64;
+        let shift = 360.0 * ((centre - mean) / 360.0).round();
+        if shift != 0.0 {
+            for p in ring.iter_mut() {
+                p[0] += shift;
+            }
+        }
+    }
+    // Shift everything so the exterior starts in [-180, 180].
+    let start = unwrapped[0][0][0];
+    let shift = 360.0 * (-start / 360.0).round();
+    if shift != 0.0 {
+        for p in unwrapped.iter_mut().flatten() {
+            p[0] += shift;
+        }
+    }
+    let inside = unwrapped
+        .iter()
+        .flatten()
+        .all(|p| (-180.0..=180.0).contains(&p[0]));
+    if inside {
+        return Ok(vec![unwrapped]);
+    }
+    std::panic::catch_unwind(|| clip_into_strips(&unwrapped)).map_err(|_| {
+        "this ring crosses the antimeridian and could not be split there (degenerate ring)"
+            .to_string()
+    })
+}
+
+fn clip_into_strips(rings: &[Vec<Position>]) -> Vec<Vec<Vec<Position>>> {
+    let to_ls =
+        |r: &Vec<Position>| LineString::new(r.iter().map(|p| Coord { x: p[0], y: p[1] }).collect());
+    let polygon = Polygon::new(to_ls(&rings[0]), rings[1..].iter().map(to_ls).collect());
+    // Altitude lookup: every input vertex, sorted by longitude.
+    let mut vertices: Vec<Position> = rings.iter().flatten().copied().collect();
+    vertices.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    let (lo, hi) = vertices
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[0]), hi.max(p[0]))
+        });
+    let mut out = Vec::new();
+    for k in [-1.0f64, 0.0, 1.0] {
+        // Strip [-180, 180] + 360 k, trimmed to the polygon's extent (a smaller clip box keeps
+        // the boolean operation's integer grid fine).
+        let (a, b) = ((-180.0 + 360.0 * k).max(lo), (180.0 + 360.0 * k).min(hi));
+        if a >= b {
+            continue;
+        }
+        let rect = Rect::new(Coord { x: a, y: -90.0 }, Coord { x: b, y: 90.0 }).to_polygon();
+        let piece: MultiPolygon<f64> = polygon.intersection(&rect);
+        for poly in piece.0 {
+            let convert = |ls: &LineString<f64>| -> Vec<Position> {
+                ls.0.iter()
+                    .map(|c| {
+                        let alt = nearest_alt(&vertices, c.x, c.y);
+                        let lon = (c.x - 360.0 * k).clamp(-180.0, 180.0);
+                        [lon, c.y.clamp(-90.0, 90.0), alt]
+                    })
+                    .collect()
+            };
+            let mut rings_out = vec![convert(poly.exterior())];
+            rings_out.extend(poly.interiors().iter().map(convert));
+            if rings_out[0].len() >= 4 {
+                out.push(rings_out);
+            }
+        }
+    }
+    out
+}
+
+/// Altitude of the input vertex nearest to `(x, y)` (planar distance in unwrapped degrees).
+fn nearest_alt(sorted: &[Position], x: f64, y: f64) -> f64 {
+    let i = sorted.partition_point(|p| p[0] < x);
+    let mut best = (f64::INFINITY, 0.0);
+    let dist = |p: &Position| (p[0] - x).powi(2) + (p[1] - y).powi(2);
+    for p in sorted[i..].iter() {
+        if (p[0] - x).powi(2) > best.0 {
+            break;
+        }
+        let d = dist(p);
+        if d < best.0 {
+            best = (d, p[2]);
+        }
+    }
+    for p in sorted[..i].iter().rev() {
+        if (p[0] - x).powi(2) > best.0 {
+            break;
+        }
+        let d = dist(p);
+        if d < best.0 {
+            best = (d, p[2]);
+        }
+    }
+    best.1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::earth::lonlat::lonlat_to_unit;
+    use proptest::prelude::*;
+
+    fn line(lonlats: &[(f64, f64)]) -> Vec<Vec<Position>> {
+        let pts: Vec<[f64; 3]> = lonlats.iter().map(|&(a, b)| lonlat_to_unit(a, b)).collect();
+        cut_line(&pts, &vec![0.0; pts.len()])
+    }
+
+    fn max_step(parts: &[Vec<Position>]) -> f64 {
+        parts
+            .iter()
+            .flat_map(|p| p.windows(2).map(|w| (w[1][0] - w[0][0]).abs()))
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn crossing_is_cut_at_the_great_circle_latitude() {
+        let parts = line(&[(179.0, 10.0), (-179.0, 10.0)]);
+        assert_eq!(parts.len(), 2);
+        let end = parts[0].last().unwrap();
+        let start = parts[1][0];
+        assert_eq!(end[0], 180.0);
+        assert_eq!(start[0], -180.0);
+        assert_eq!(end[1], start[1]);
+        // The great circle through two points at 10 N bulges slightly poleward.
+        assert!(end[1] > 10.0 && end[1] < 10.01, "{}", end[1]);
+    }
+
+    #[test]
+    fn westward_crossing_is_cut_too() {
+        let parts = line(&[(-170.0, 0.0), (170.0, 1.0), (160.0, 1.0)]);
+        assert_eq!(parts.len(), 2);
+        assert_eq!(parts[0].last().unwrap()[0], -180.0);
+        assert_eq!(parts[1][0][0], 180.0);
+        assert_eq!(parts[1].len(), 3);
+    }
+
+    #[test]
+    fn prime_meridian_is_not_cut() {
+        let parts = line(&[(-1.0, 0.0), (1.0, 0.0)]);
+        assert_eq!(parts.len(), 1);
+        assert_eq!(parts[0].len(), 2);
+    }
+
+    #[test]
+    fn passing_a_pole_keeps_segments_under_180_degrees() {
+        // Over the North Pole on the prime-meridian side: lon jumps from 170 to -9.5.
+        let parts = line(&[(170.0, 89.9), (-9.5, 89.9)]);
+        assert_eq!(parts.len(), 1);
+        assert!(max_step(&parts) <= 180.0, "{:?}", parts);
+        // Over the pole on the antimeridian side: cut.
+        let parts = line(&[(10.0, 89.9), (-170.5, 89.9)]);
+        assert_eq!(parts.len(), 2);
+        assert!(max_step(&parts) <= 180.0, "{:?}", parts);
+    }
+
+    #[test]
+    fn touching_the_antimeridian_and_turning_back_is_one_piece() {
+        let parts = line(&[(170.0, 0.0), (180.0, 1.0), (170.0, 2.0)]);
+        assert_eq!(parts.len(), 1);
+        assert_eq!(parts[0][1][0], 180.0);
+        let parts = line(&[(-170.0, 0.0), (180.0, 1.0), (-170.0, 2.0)]);
+        assert_eq!(parts.len(), 1);
+        assert_eq!(parts[0][1][0], -180.0);
+    }
+
+    #[test]
+    fn passing_through_a_vertex_on_the_antimeridian_cuts_there() {
+        let parts = line(&[(170.0, 0.0), (180.0, 1.0), (-170.0, 2.0)]);
+        assert_eq!(parts.len(), 2);
+        assert_eq!(parts[0].last().unwrap()[0], 180.0);
+        assert_eq!(parts[1][0][0], -180.0);
+        assert_eq!(parts[1][0][1], parts[0].last().unwrap()[1]);
+    }
+
+    #[test]
+    fn altitude_is_interpolated_at_the_cut() {
+        let pts = [lonlat_to_unit(179.0, 0.0), lonlat_to_unit(-179.0, 0.0)];
+        let parts = cut_line(&pts, &[100.0, 200.0]);
+        assert!((parts[0][1][2] - 150.0).abs() < 1e-6);
+        assert!((parts[1][0][2] - 150.0).abs() < 1e-6);
+    }
+
+    fn ring(lonlats: &[(f64, f64)]) -> SphereRing {
+        let points: Vec<[f64; 3]> = lonlats.iter().map(|&(a, b)| lonlat_to_unit(a, b)).collect();
+        let alts = vec![7.0; points.len()];
+        SphereRing { points, alts }
+    }
+
+    #[test]
+    fn polygon_inside_the_range_is_unchanged() {
+        let r = ring(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 0.0)]);
+        let polys = split_polygon(&[r]).unwrap();
+        assert_eq!(polys.len(), 1);
+        assert_eq!(polys[0][0].len(), 4);
+        assert!((polys[0][0][1][0] - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn polygon_across_the_antimeridian_is_split_in_two() {
+        let r = ring(&[
+            (170.0, -10.0),
+            (-170.0, -10.0),
+            (-170.0, 10.0),
+            (170.0, 10.0),
+            (170.0, -10.0),
+        ]);
+        let polys = split_polygon(&[r]).unwrap();
+        assert_eq!(polys.len(), 2, "{polys:?}");
+        for p in &polys {
+            let lons: Vec<f64> = p[0].iter().map(|q| q[0]).collect();
+            let all_east = lons.iter().all(|&l| l >= 170.0 - 1e-6);
+            let all_west = lons.iter().all(|&l| l <= -170.0 + 1e-6);
+            assert!(all_east || all_west, "{lons:?}");
+            assert!(p[0].iter().all(|q| q[2] == 7.0));
+        }
+    }
+
+    #[test]
+    fn ring_around_a_pole_is_closed_along_the_pole() {
+        let r = ring(&[
+            (0.0, 80.0),
+            (90.0, 80.0),
+            (180.0, 80.0),
+            (-90.0, 80.0),
+            (0.0, 80.0),
+        ]);
+        let polys = split_polygon(&[r]).unwrap();
+        assert!(!polys.is_empty());
+        let max_lat = polys
+            .iter()
+            .flat_map(|p| p[0].iter().map(|q| q[1]))
+            .fold(f64::MIN, f64::max);
+        assert_eq!(max_lat, 90.0);
+        for p in &polys {
+            assert!(p[0].iter().all(|q| (-180.0..=180.0).contains(&q[0])));
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn no_output_segment_spans_more_than_180_degrees(
+            lon0 in -180.0f64..180.0, lat0 in -89.0f64..89.0,
+            steps in proptest::collection::vec((-3.0f64..3.0, -3.0f64..3.0), 1..60),
+        ) {
+            let mut pts = vec![lonlat_to_unit(lon0, lat0)];
+            let (mut lon, mut lat) = (lon0, lat0);
+            for (dlon, dlat) in steps {
+                lon = (lon + dlon + 540.0).rem_euclid(360.0) - 180.0;
+                lat = (lat + dlat).clamp(-90.0, 90.0);
+                pts.push(lonlat_to_unit(lon, lat));
+            }
+            let parts = cut_line(&pts, &vec![0.0; pts.len()]);
+            prop_assert!(max_step(&parts) <= 180.0 + 1e-9);
+            for p in &parts {
+                for q in p {
+                    prop_assert!((-180.0..=180.0).contains(&q[0]));
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,1042 @@
+//! One line or ring on the Earth: positions parsed and checked, repeats dropped, fitted (or
+//! interpolated, or read from a spline document), rounded and sampled densely.
+//!
+//! Pointers in errors are relative to the document: `pointer` is where the line's coordinates
+//! array sits (`/features/3/geometry/coordinates`), and a position error adds `/17` or `/17/1`.
+
+use super::lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, round_to, unit_to_lonlat, LonLat};
+use super::sampling::{
+    sample, DenseCurve, Sampling, AUTO_DEVIATION_FLOOR_M, AUTO_DEVIATION_FRACTION,
+};
+use super::{EarthError, InterpolateSettings, Limits, OutputOptions, Problem};
+use crate::sphere::beta::{interpolate, BetaDocument, InterpolationOptions, SphericalBetaSpline};
+use crate::sphere::fit::default_control_points;
+use crate::sphere::metrics::{measure, pointwise_errors};
+use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
+use crate::sphere::{
+    fit, gls_pia_iteration, FitOptions, PointSet, SphereError, SphericalBSpline, SphericalCurve,
+};
+use serde_json::{json, Map, Value};
+
+/// Consecutive positions closer than this (radians; 0.6 mm on the Earth) are repeats: far below
+/// the 1.1 cm resolution of 7-decimal coordinates, far above rounding noise.
+pub const REPEAT_ANGLE_RAD: f64 = 1e-10;
+
+/// Automatic sampling of an interpolating curve keeps the polyline within this share of the
+/// mean vertex spacing of the curve (and at least `AUTO_DEVIATION_FLOOR_M`): the curve has no
+/// fit error to compare with, and 0.5 % of a step is far below what the vertices resolve.
+pub const INTERPOLATION_DEVIATION_FRACTION: f64 = 0.005;
+
+/// Output altitudes are rounded to millimetres.
+const ALTITUDE_DECIMALS: u32 = 3;
+
+/// Reported metres are rounded to millimetres.
+fn round_m(x: f64) -> f64 {
+    round_to(x, 3)
+}
+
+/// The positions of one line as unit vectors, with altitudes when every position has one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinePositions {
+    pub points: Vec<[f64; 3]>,
+    pub alts: Option<Vec<f64>>,
+}
+
+/// Reads `[[lon, lat(, alt)], ...]`, checking types, ranges and that either all positions or
+/// none have an altitude.
+///
+/// # Errors
+/// [`Problem::InvalidGeoJson`] when `v` is not an array; [`Problem::InvalidCoordinate`] at the
+/// offending position or number.
+pub fn parse_positions(v: &Value, pointer: &str) -> Result<LinePositions, EarthError> {
+    let arr = v.as_array().ok_or_else(|| {
+        EarthError::new(
+            pointer,
+            Problem::InvalidGeoJson("expected an array of positions [longitude, latitude]".into()),
+        )
+    })?;
+    let mut points = Vec::with_capacity(arr.len());
+    let mut alts = Vec::new();
+    let mut with_alt = None;
+    for (i, pos) in arr.iter().enumerate() {
+        let bad = |ptr: String, msg: String| EarthError::new(ptr, Problem::InvalidCoordinate(msg));
+        let nums = pos.as_array().ok_or_else(|| {
+            bad(
+                format!("{pointer}/{i}"),
+                "a position is an array [longitude, latitude] or [longitude, latitude, altitude]"
+                    .into(),
+            )
+        })?;
+        if nums.len() < 2 || nums.len() > 3 {
+            return Err(bad(
+                format!("{pointer}/{i}"),
+                format!(
+                    "a position has 2 or 3 numbers ([longitude, latitude(, altitude)]), this one has {}",
+                    nums.len()
+                ),
+            ));
+        }
+        let mut xs = [0.0; 3];
+        for (k, x) in nums.iter().enumerate() {
+            xs[k] = x.as_f64().ok_or_else(|| {
+                bad(
+                    format!("{pointer}/{i}/{k}"),
+                    format!("expected a number, got {}", json_kind(x)),
+                )
+            })?;
+        }
+        let has_alt = nums.len() == 3;
+        match with_alt {
+            None => with_alt = Some(has_alt),
+            Some(w) if w != has_alt => {
+                return Err(bad(
+                    format!("{pointer}/{i}"),
+                    format!(
+                        "this position has {} numbers but the first has {}: give an altitude for every position of a line or for none",
+                        nums.len(),
+                        if w { 3 } else { 2 }
+                    ),
+                ));
+            }
+            Some(_) => {}
+        }
+        let ll = LonLat::try_new(xs[0], xs[1]).map_err(|e| {
+            let k = match e {
+                super::lonlat::LonLatError::LatitudeOutOfRange { .. } => 1,
+                _ => 0,
+            };
+            bad(format!("{pointer}/{i}/{k}"), e.to_string())
+        })?;
+        points.push(ll.to_unit());
+        if has_alt {
+            alts.push(xs[2]);
+        }
+    }
+    Ok(LinePositions {
+        points,
+        alts: (with_alt == Some(true)).then_some(alts),
+    })
+}
+
+/// The JSON type of a value, for messages.
+pub(crate) fn json_kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+/// A line with repeated consecutive positions dropped.
+#[derive(Clone, Debug)]
+pub struct DistinctPositions {
+    /// The kept positions.
+    pub points: Vec<[f64; 3]>,
+    /// Index of each kept position in the input.
+    pub input_index: Vec<usize>,
+    /// How many input positions each kept one stands for (1 + its repeats).
+    pub multiplicity: Vec<usize>,
+    /// Altitude of each kept position (that of its first copy; zeros without altitudes).
+    pub alts: Vec<f64>,
+}
+
+impl DistinctPositions {
+    /// Drops repeats (within [`REPEAT_ANGLE_RAD`] of the previous kept position).
+    pub fn from_line(line: &LinePositions) -> DistinctPositions {
+        let mut d = DistinctPositions {
+            points: Vec::with_capacity(line.points.len()),
+            input_index: Vec::with_capacity(line.points.len()),
+            multiplicity: Vec::with_capacity(line.points.len()),
+            alts: Vec::with_capacity(line.points.len()),
+        };
+        for (i, p) in line.points.iter().enumerate() {
+            if let Some(last) = d.points.last() {
+                if angle_between(last, p) <= REPEAT_ANGLE_RAD {
+                    *d.multiplicity.last_mut().expect("non-empty") += 1;
+                    continue;
+                }
+            }
+            d.points.push(*p);
+            d.input_index.push(i);
+            d.multiplicity.push(1);
+            d.alts.push(line.alts.as_ref().map_or(0.0, |a| a[i]));
+        }
+        d
+    }
+
+    /// Number of distinct positions.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    fn point_set(&self) -> PointSet {
+        PointSet::try_from_rows(&self.points).expect("lon/lat positions are unit vectors")
+    }
+
+    /// Errors unless there are at least 2 distinct positions and no antipodal neighbours.
+    fn check_curve(&self, pointer: &str) -> Result<(), EarthError> {
+        if self.len() < 2 {
+            return Err(EarthError::new(
+                pointer,
+                Problem::TooFewPoints {
+                    distinct: self.len(),
+                    need: 2,
+                },
+            ));
+        }
+        for i in 1..self.len() {
+            let a = angle_between(&self.points[i - 1], &self.points[i]);
+            if a >= std::f64::consts::PI - ANTIPODAL_MARGIN_RAD {
+                return Err(EarthError::new(
+                    format!("{pointer}/{}", self.input_index[i]),
+                    Problem::Antipodal {
+                        angle_deg: a.to_degrees(),
+                    },
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Checks that a ring is closed (last position = first) and has at least 4 positions.
+fn check_ring(line: &LinePositions, pointer: &str) -> Result<(), EarthError> {
+    let n = line.points.len();
+    if n < 4 {
+        return Err(EarthError::new(
+            pointer,
+            Problem::InvalidRing(format!(
+                "a Polygon ring needs at least 4 positions (the last repeating the first), got {n}"
+            )),
+        ));
+    }
+    if angle_between(&line.points[0], &line.points[n - 1]) > REPEAT_ANGLE_RAD {
+        return Err(EarthError::new(
+            format!("{pointer}/{}", n - 1),
+            Problem::InvalidRing(
+                "a Polygon ring must end where it starts: the last position differs from the first"
+                    .into(),
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Everything reported about one fitted, interpolated or evaluated curve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurveReport {
+    /// Where the curve sits in its geometry's coordinates (`[]` for a LineString, `[i]` for a
+    /// MultiLineString part or Polygon ring, `[polygon, ring]` for a MultiPolygon).
+    pub path: Vec<usize>,
+    /// A ring (closed curve).
+    pub closed: bool,
+    /// Fields of `properties.fit` (or `interpolation`) for this curve, spline/curve included.
+    pub fields: Map<String, Value>,
+    /// Input positions (repeats included); 0 for evaluation.
+    pub input_points: usize,
+    /// Dense output points.
+    pub output_points: usize,
+    /// Numbers that store the curve (control point coordinates, knots, degree).
+    pub stored_numbers: usize,
+    /// Max error in metres (0 for evaluation).
+    pub max_error_m: f64,
+    /// Sum of errors and of squared errors (metres), for pooled means.
+    pub error_sum_m: f64,
+    pub error_sq_sum_m2: f64,
+}
+
+/// A curve ready for output: dense unit vectors with altitudes, and its report.
+#[derive(Clone, Debug)]
+pub struct CurveOutput {
+    /// Where the curve's coordinates (or document) sit in the input.
+    pub pointer: String,
+    pub points: Vec<[f64; 3]>,
+    pub alts: Vec<f64>,
+    pub has_alt: bool,
+    pub report: CurveReport,
+}
+
+/// The number of points automatic sampling starts from: a few per control point.
+fn sampling_start(control_points: usize) -> usize {
+    (4 * control_points).max(16)
+}
+
+/// Automatic sampling tolerance for a curve whose max error is `max_error_rad`.
+pub fn auto_tolerance_rad(max_error_rad: f64) -> f64 {
+    (AUTO_DEVIATION_FRACTION * max_error_rad).max(m_to_rad(AUTO_DEVIATION_FLOOR_M))
+}
+
+/// Fits one line (or ring, when `closed`) given as a GeoJSON coordinates array.
+///
+/// # Errors
+/// Invalid positions, an open or short ring, fewer than 2 distinct positions, antipodal
+/// neighbours, more control points than distinct positions, or output over the limits.
+pub fn fit_line(
+    coords: &Value,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    options: &FitOptions,
+    output: &OutputOptions,
+    limits: &Limits,
+) -> Result<CurveOutput, EarthError> {
+    let line = parse_positions(coords, pointer)?;
+    if closed {
+        check_ring(&line, pointer)?;
+    }
+    let distinct = DistinctPositions::from_line(&line);
+    distinct.check_curve(pointer)?;
+    let m = distinct.len();
+    let degree = options.degree.min(m - 1);
+    let control_points = match options.control_points {
+        Some(n) if n > m => {
+            return Err(EarthError::new(
+                pointer,
+                Problem::TooManyControlPoints {
+                    control_points: n,
+                    distinct: m,
+                },
+            ))
+        }
+        Some(n) => n,
+        None => default_control_points(m, degree).min(limits.max_control_points.max(degree + 1)),
+    };
+    let opts = options
+        .clone()
+        .with_degree(degree)
+        .with_control_points(control_points);
+    let points = distinct.point_set();
+    let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
+    let (spline, params, iterations, converged) = if closed {
+        fit_closed(&points, &opts).map_err(fit_err)?
+    } else {
+        let r = fit(&points, None, &opts).map_err(fit_err)?;
+        (r.spline, r.parameters, r.iterations, r.converged)
+    };
+    let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
+
+    // Errors of the spline as returned, each distinct position counted once per input copy.
+    let errs = pointwise_errors(&spline, &points, &params);
+    let (mut max_rad, mut sum_rad, mut sq_rad) = (0.0f64, 0.0, 0.0);
+    for (e, &k) in errs.iter().zip(&distinct.multiplicity) {
+        max_rad = max_rad.max(*e);
+        sum_rad += e * k as f64;
+        sq_rad += e * e * k as f64;
+    }
+    let n_in = line.points.len();
+    let dense = sample(
+        &spline,
+        ring_sampling(output.sampling, closed),
+        auto_tolerance_rad(max_rad),
+        sampling_start(control_points),
+        limits.max_samples,
+    )
+    .map_err(|e| EarthError::new(pointer, e.problem))?;
+    let (points_out, alts) = finish_dense(&dense, closed, &params, &distinct.alts);
+
+    let spline_doc = json!({
+        "degree": spline.degree(),
+        "knots": spline.knots(),
+        "control_points": control_ll,
+    });
+    let mut fields = Map::new();
+    fields.insert("max_error_m".into(), json!(round_m(rad_to_m(max_rad))));
+    fields.insert(
+        "mean_error_m".into(),
+        json!(round_m(rad_to_m(sum_rad / n_in as f64))),
+    );
+    fields.insert(
+        "rms_error_m".into(),
+        json!(round_m(rad_to_m((sq_rad / n_in as f64).sqrt()))),
+    );
+    fields.insert("input_points".into(), json!(n_in));
+    fields.insert("control_points".into(), json!(control_points));
+    fields.insert("iterations".into(), json!(iterations));
+    fields.insert("converged".into(), json!(converged));
+    fields.insert(
+        "knots".into(),
+        serde_json::to_value(options.knots).expect("enum serialises"),
+    );
+    fields.insert(
+        "parameterization".into(),
+        serde_json::to_value(options.parameterization).expect("enum serialises"),
+    );
+    fields.insert("output_points".into(), json!(points_out.len()));
+    fields.insert(
+        "sampling_deviation_m".into(),
+        json!(round_m(rad_to_m(dense.max_deviation_rad))),
+    );
+    fields.insert("spline".into(), spline_doc);
+    Ok(CurveOutput {
+        pointer: pointer.to_string(),
+        has_alt: line.alts.is_some(),
+        report: CurveReport {
+            path,
+            closed,
+            fields,
+            input_points: n_in,
+            output_points: points_out.len(),
+            stored_numbers: 2 * control_points + spline.knots().len() + 1,
+            max_error_m: rad_to_m(max_rad),
+            error_sum_m: rad_to_m(sum_rad),
+            error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
+        },
+        points: points_out,
+        alts,
+    })
+}
+
+/// Dense points (a ring ends exactly where it starts) and altitudes interpolated linearly over
+/// the data parameters.
+fn finish_dense(
+    dense: &DenseCurve,
+    closed: bool,
+    data_params: &[f64],
+    data_alts: &[f64],
+) -> (Vec<[f64; 3]>, Vec<f64>) {
+    let mut pts = dense.points.clone();
+    if closed && pts.len() > 1 {
+        let last = pts.len() - 1;
+        pts[last] = pts[0];
+    }
+    let mut alts: Vec<f64> = dense
+        .params
+        .iter()
+        .map(|&t| interpolate_altitude(data_params, data_alts, t))
+        .collect();
+    if closed && alts.len() > 1 {
+        let last = alts.len() - 1;
+        alts[last] = alts[0];
+    }
+    (pts, alts)
+}
+
+fn interpolate_altitude(params: &[f64], alts: &[f64], t: f64) -> f64 {
+    let j = params.partition_point(|&u| u <= t);
+    if j == 0 {
+        return alts[0];
+    }
+    if j >= params.len() {
+        return alts[alts.len() - 1];
+    }
+    let (ta, tb) = (params[j - 1], params[j]);
+    if tb <= ta {
+        return alts[j];
+    }
+    let f = (t - ta) / (tb - ta);
+    // This form cannot overflow for finite altitudes of opposite signs.
+    (1.0 - f) * alts[j - 1] + f * alts[j]
+}
+
+/// A ring needs at least 4 output positions (RFC 7946 §3.1.6).
+fn ring_sampling(sampling: Sampling, closed: bool) -> Sampling {
+    match sampling {
+        Sampling::Samples(n) if closed && n < 4 => Sampling::Samples(4),
+        Sampling::SpacingAndSamples { spacing_m, samples } if closed && samples < 4 => {
+            Sampling::SpacingAndSamples {
+                spacing_m,
+                samples: 4,
+            }
+        }
+        Sampling::SpacingM(spacing_m) if closed => Sampling::SpacingAndSamples {
+            spacing_m,
+            samples: 4,
+        },
+        s => s,
+    }
+}
+
+/// A spline whose control points are rounded to `precision` decimals of a degree, and those
+/// control points as `[lon, lat]`.
+fn round_spline(
+    s: &SphericalBSpline,
+    precision: u32,
+) -> Result<(SphericalBSpline, Vec<[f64; 2]>), SphereError> {
+    let ll: Vec<[f64; 2]> = s
+        .control_points()
+        .iter()
+        .map(|p| {
+            let (lon, lat) = unit_to_lonlat(p);
+            [round_to(lon, precision), round_to(lat, precision)]
+        })
+        .collect();
+    let rows: Vec<[f64; 3]> = ll.iter().map(|p| lonlat_to_unit(p[0], p[1])).collect();
+    let control = PointSet::try_from_rows(&rows)?;
+    Ok((
+        SphericalBSpline::try_new(s.degree(), s.knots().to_vec(), control)?,
+        ll,
+    ))
+}
+
+/// GLS-PIA for a closed curve: the clamped spline's end control points are pinned together
+/// (to their normalised mean) after every update, so the curve closes exactly; the update is
+/// otherwise the paper's. Returns the spline with the lowest RMS error seen, the parameters,
+/// the updates made and whether it stopped by stagnation.
+fn fit_closed(
+    points: &PointSet,
+    options: &FitOptions,
+) -> Result<(SphericalBSpline, Vec<f64>, usize, bool), SphereError> {
+    let initial = fit(points, None, &options.clone().with_iterations(0))?;
+    let params = initial.parameters;
+    let mut current = pin_ends(&initial.spline)?;
+    let mut best: Option<(SphericalBSpline, f64)> = None;
+    let mut last_rms = f64::INFINITY;
+    let mut iterations = 0;
+    let mut converged = false;
+    loop {
+        if iterations == options.iterations {
+            let m = measure(&current, points, &params);
+            if best.as_ref().is_none_or(|(_, r)| m.rms_error_rad < *r) {
+                best = Some((current.clone(), m.rms_error_rad));
+            }
+            break;
+        }
+        let before = current.clone();
+        let m = gls_pia_iteration(&mut current, points, &params, options.step);
+        if best.as_ref().is_none_or(|(_, r)| m.rms_error_rad < *r) {
+            best = Some((before, m.rms_error_rad));
+        }
+        if m.max_error_rad == 0.0
+            || (iterations > 0 && last_rms - m.rms_error_rad <= options.stagnation * last_rms)
+        {
+            converged = true;
+            break;
+        }
+        last_rms = m.rms_error_rad;
+        current = pin_ends(&current)?;
+        iterations += 1;
+    }
+    let (spline, _) = best.expect("at least one measurement");
+    Ok((spline, params, iterations, converged))
+}
+
+fn pin_ends(s: &SphericalBSpline) -> Result<SphericalBSpline, SphereError> {
+    let mut rows = s.control_points().to_rows();
+    let last = rows.len() - 1;
+    let mean: Vec<f64> = rows[0]
+        .iter()
+        .zip(&rows[last])
+        .map(|(a, b)| 0.5 * (a + b))
+        .collect();
+    let norm = mean.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let pinned: Vec<f64> = if norm > 1e-12 {
+        mean.iter().map(|x| x / norm).collect()
+    } else {
+        rows[0].clone()
+    };
+    rows[0] = pinned.clone();
+    rows[last] = pinned;
+    SphericalBSpline::try_new(
+        s.degree(),
+        s.knots().to_vec(),
+        PointSet::try_from_rows(&rows)?,
+    )
+}
+
+/// Maps a math-core error on distinct positions to a GeoJSON error at the input position.
+fn sphere_error(e: SphereError, pointer: &str, input_index: &[usize]) -> EarthError {
+    let at = |i: usize| format!("{pointer}/{}", input_index.get(i).copied().unwrap_or(i));
+    match e {
+        SphereError::Antipodal { index, angle_rad } => EarthError::new(
+            at(index),
+            Problem::Antipodal {
+                angle_deg: angle_rad.to_degrees(),
+            },
+        ),
+        SphereError::RepeatedPoint { index, .. } => EarthError::new(at(index), Problem::Fit(e)),
+        SphereError::TooFewPoints { got, need } => EarthError::new(
+            pointer,
+            Problem::TooFewPoints {
+                distinct: got,
+                need,
+            },
+        ),
+        SphereError::AllPointsEqual { count } => EarthError::new(
+            pointer,
+            Problem::TooFewPoints {
+                distinct: count.min(1),
+                need: 2,
+            },
+        ),
+        SphereError::NotInterpolated { joint, .. } | SphereError::DegenerateArc { joint, .. } => {
+            EarthError::new(at(joint), Problem::Interpolation(e))
+        }
+        other => EarthError::new(pointer, Problem::Fit(other)),
+    }
+}
+
+/// Interpolates every distinct position of one line (or ring) with a spherical Beta-spline.
+///
+/// # Errors
+/// As [`fit_line`], plus [`Problem::Interpolation`] when the shape parameters cannot be met.
+pub fn interpolate_line(
+    coords: &Value,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    settings: &InterpolateSettings,
+    output: &OutputOptions,
+    limits: &Limits,
+) -> Result<CurveOutput, EarthError> {
+    let line = parse_positions(coords, pointer)?;
+    if closed {
+        check_ring(&line, pointer)?;
+    }
+    let distinct = DistinctPositions::from_line(&line);
+    distinct.check_curve(pointer)?;
+    let points = distinct.point_set();
+    let opts = InterpolationOptions::default()
+        .with_beta1(settings.beta1)
+        .with_beta2(settings.beta2);
+    let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
+    let r = interpolate(&points, &opts).map_err(fit_err)?;
+    let (curve, doc) = round_beta(&r.spline, output.precision).map_err(|e| {
+        EarthError::new(
+            pointer,
+            Problem::InvalidSpline(format!("rounding the curve: {e}")),
+        )
+    })?;
+    // Distance from each input position to the rounded curve at its parameter j.
+    let params: Vec<f64> = (0..distinct.len()).map(|j| j as f64).collect();
+    let at = curve.evaluate_many(&params);
+    let (mut max_rad, mut sum_rad, mut sq_rad) = (0.0f64, 0.0, 0.0);
+    for (j, c) in at.iter().enumerate() {
+        let e = angle_between(&distinct.points[j], c);
+        let k = distinct.multiplicity[j] as f64;
+        max_rad = max_rad.max(e);
+        sum_rad += e * k;
+        sq_rad += e * e * k;
+    }
+    let n_in = line.points.len();
+    let segments = distinct.len() - 1;
+    // No fit error to stay below here: automatic sampling keeps within a small share of the
+    // mean vertex spacing instead.
+    let mean_step_rad = distinct
+        .points
+        .windows(2)
+        .map(|w| angle_between(&w[0], &w[1]))
+        .sum::<f64>()
+        / segments as f64;
+    let dense = sample(
+        &curve,
+        ring_sampling(output.sampling, closed),
+        (INTERPOLATION_DEVIATION_FRACTION * mean_step_rad).max(m_to_rad(AUTO_DEVIATION_FLOOR_M)),
+        sampling_start(segments),
+        limits.max_samples,
+    )
+    .map_err(|e| EarthError::new(pointer, e.problem))?;
+    let (points_out, alts) = finish_dense(&dense, closed, &params, &distinct.alts);
+    let mut fields = Map::new();
+    fields.insert("max_error_m".into(), json!(round_m(rad_to_m(max_rad))));
+    fields.insert("input_points".into(), json!(n_in));
+    fields.insert("segments".into(), json!(segments));
+    fields.insert("output_points".into(), json!(points_out.len()));
+    fields.insert(
+        "sampling_deviation_m".into(),
+        json!(round_m(rad_to_m(dense.max_deviation_rad))),
+    );
+    fields.insert("curve".into(), doc);
+    Ok(CurveOutput {
+        pointer: pointer.to_string(),
+        has_alt: line.alts.is_some(),
+        report: CurveReport {
+            path,
+            closed,
+            fields,
+            input_points: n_in,
+            output_points: points_out.len(),
+            stored_numbers: 2 * (3 * segments + 1) + 2 * (segments + 1),
+            max_error_m: rad_to_m(max_rad),
+            error_sum_m: rad_to_m(sum_rad),
+            error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
+        },
+        points: points_out,
+        alts,
+    })
+}
+
+/// A Beta-spline with control points rounded to `precision`, and its lon/lat document.
+fn round_beta(
+    s: &SphericalBetaSpline,
+    precision: u32,
+) -> Result<(SphericalBetaSpline, Value), crate::sphere::document::InputError> {
+    let doc = BetaDocument::from(s);
+    let round_pt = |p: &Vec<f64>| {
+        let (lon, lat) = unit_to_lonlat(p);
+        [round_to(lon, precision), round_to(lat, precision)]
+    };
+    let ll_segments: Vec<Vec<[f64; 2]>> = doc
+        .segments
+        .iter()
+        .map(|seg| seg.iter().map(round_pt).collect())
+        .collect();
+    let unit_doc = BetaDocument {
+        kind: doc.kind.clone(),
+        beta1: doc.beta1.clone(),
+        beta2: doc.beta2.clone(),
+        segments: ll_segments
+            .iter()
+            .map(|seg| std::array::from_fn(|k| lonlat_to_unit(seg[k][0], seg[k][1]).to_vec()))
+            .collect(),
+    };
+    let spline = unit_doc.to_spline()?;
+    let json_doc = json!({
+        "type": "beta",
+        "beta1": doc.beta1,
+        "beta2": doc.beta2,
+        "segments": ll_segments,
+    });
+    Ok((spline, json_doc))
+}
+
+/// A curve read from a lon/lat document: a B-spline `{"degree", "knots", "control_points":
+/// [[lon, lat], ...]}` or a Beta-spline `{"type": "beta", "beta1", "beta2", "segments"}`.
+pub enum LonLatCurve {
+    BSpline(SphericalBSpline),
+    Beta(SphericalBetaSpline),
+}
+
+impl LonLatCurve {
+    fn as_curve(&self) -> &dyn SphericalCurve {
+        match self {
+            LonLatCurve::BSpline(s) => s,
+            LonLatCurve::Beta(s) => s,
+        }
+    }
+}
+
+/// Reads a lon/lat curve document at `pointer`. `"crs"`, when present, must be `"lonlat"`.
+///
+/// # Errors
+/// [`Problem::InvalidSpline`] or [`Problem::InvalidCoordinate`] at the offending field.
+pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<LonLatCurve, EarthError> {
+    let invalid = |ptr: String, msg: String| EarthError::new(ptr, Problem::InvalidSpline(msg));
+    let map = v.as_object().ok_or_else(|| {
+        invalid(
+            pointer.to_string(),
+            "expected a spline document {\"degree\", \"knots\", \"control_points\": [[lon, lat], ...]}".into(),
+        )
+    })?;
+    if let Some(crs) = map.get("crs") {
+        if crs.as_str() != Some("lonlat") {
+            return Err(invalid(
+                format!("{pointer}/crs"),
+                "only \"lonlat\" is supported here (S^n documents go to /v1/sphere/evaluate)"
+                    .into(),
+            ));
+        }
+    }
+    let is_beta =
+        map.get("type").and_then(Value::as_str) == Some("beta") || map.contains_key("segments");
+    // Convert lon/lat positions to unit vectors in a copy of the document, then let the math
+    // core's document reader validate it (its pointers are relative to the document).
+    let mut unit = map.clone();
+    unit.remove("crs");
+    let convert = |v: &Value, ptr: &str| -> Result<Value, EarthError> {
+        let line = parse_positions(v, ptr)?;
+        Ok(json!(line.points))
+    };
+    if is_beta {
+        let segs = map
+            .get("segments")
+            .and_then(Value::as_array)
+            .ok_or_else(|| {
+                invalid(
+                    format!("{pointer}/segments"),
+                    "expected an array of segments".into(),
+                )
+            })?;
+        let mut out = Vec::with_capacity(segs.len());
+        for (i, s) in segs.iter().enumerate() {
+            out.push(convert(s, &format!("{pointer}/segments/{i}"))?);
+        }
+        unit.insert("segments".into(), Value::Array(out));
+        let spline = BetaDocument::from_json(&Value::Object(unit))
+            .and_then(|d| d.to_spline())
+            .map_err(|e| invalid(format!("{pointer}{}", e.pointer), e.message))?;
+        Ok(LonLatCurve::Beta(spline))
+    } else {
+        let cps = map.get("control_points").ok_or_else(|| {
+            invalid(
+                pointer.to_string(),
+                "missing \"control_points\" ([[lon, lat], ...])".into(),
+            )
+        })?;
+        unit.insert(
+            "control_points".into(),
+            convert(cps, &format!("{pointer}/control_points"))?,
+        );
+        let spline = crate::sphere::document::spline_from_json(&Value::Object(unit))
+            .map_err(|e| invalid(format!("{pointer}{}", e.pointer), e.message))?;
+        Ok(LonLatCurve::BSpline(spline))
+    }
+}
+
+/// Samples a stored curve densely (for `evaluate`). `known_error_m` (the fit's max error, when
+/// the document carries it) sets the automatic sampling tolerance.
+///
+/// # Errors
+/// An invalid document, or output over the limits.
+pub fn evaluate_curve(
+    doc: &Value,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    known_error_m: Option<f64>,
+    output: &OutputOptions,
+    limits: &Limits,
+) -> Result<CurveOutput, EarthError> {
+    let curve = curve_from_lonlat_json(doc, pointer)?;
+    let (start, stored) = match &curve {
+        LonLatCurve::BSpline(s) => {
+            let n = s.control_points().len();
+            (sampling_start(n), 2 * n + s.knots().len() + 1)
+        }
+        LonLatCurve::Beta(s) => {
+            let n = s.segment_count();
+            (sampling_start(n), 2 * (3 * n + 1) + 2 * (n + 1))
+        }
+    };
+    let tol = auto_tolerance_rad(m_to_rad(known_error_m.unwrap_or(0.0).max(0.0)));
+    let dense = sample(
+        curve.as_curve(),
+        ring_sampling(output.sampling, closed),
+        tol,
+        start,
+        limits.max_samples,
+    )
+    .map_err(|e| EarthError::new(pointer, e.problem))?;
+    let (points, alts) = finish_dense(&dense, closed, &[0.0], &[0.0]);
+    let mut fields = Map::new();
+    fields.insert("output_points".into(), json!(points.len()));
+    fields.insert(
+        "sampling_deviation_m".into(),
+        json!(round_m(rad_to_m(dense.max_deviation_rad))),
+    );
+    Ok(CurveOutput {
+        pointer: pointer.to_string(),
+        has_alt: false,
+        report: CurveReport {
+            path,
+            closed,
+            fields,
+            input_points: 0,
+            output_points: points.len(),
+            stored_numbers: stored,
+            max_error_m: 0.0,
+            error_sum_m: 0.0,
+            error_sq_sum_m2: 0.0,
+        },
+        points,
+        alts,
+    })
+}
+
+/// Rounds a position for output: degrees to `precision`, altitude to millimetres.
+pub fn output_position(p: &[f64; 3], has_alt: bool, precision: u32) -> Value {
+    let lon = round_to(p[0], precision);
+    let lat = round_to(p[1], precision);
+    if has_alt {
+        json!([lon, lat, round_to(p[2], ALTITUDE_DECIMALS)])
+    } else {
+        json!([lon, lat])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn coords(n: usize, f: impl Fn(f64) -> (f64, f64)) -> Value {
+        json!((0..n)
+            .map(|i| {
+                let (a, b) = f(i as f64 / (n - 1) as f64);
+                [a, b]
+            })
+            .collect::<Vec<_>>())
+    }
+
+    #[test]
+    fn positions_are_checked_with_pointers() {
+        let e = parse_positions(&json!([[0, 0], [1, 91]]), "/c").unwrap_err();
+        assert_eq!(e.pointer, "/c/1/1");
+        let e = parse_positions(&json!([[0, 0], [181, 1]]), "/c").unwrap_err();
+        assert_eq!(e.pointer, "/c/1/0");
+        let e = parse_positions(&json!([[0, 0], ["1", 1]]), "/c").unwrap_err();
+        assert_eq!(e.pointer, "/c/1/0");
+        let e = parse_positions(&json!([[0, 0, 5], [1, 1]]), "/c").unwrap_err();
+        assert_eq!(e.pointer, "/c/1");
+        let e = parse_positions(&json!([[0, 0], [1]]), "/c").unwrap_err();
+        assert_eq!(e.pointer, "/c/1");
+        let ok = parse_positions(&json!([[0, 0, 5], [1, 1, 6]]), "/c").unwrap();
+        assert_eq!(ok.alts, Some(vec![5.0, 6.0]));
+    }
+
+    #[test]
+    fn repeats_are_dropped_but_counted() {
+        let line =
+            parse_positions(&json!([[0, 0], [0, 0], [1, 0], [1, 0], [1, 0], [2, 0]]), "").unwrap();
+        let d = DistinctPositions::from_line(&line);
+        assert_eq!(d.len(), 3);
+        assert_eq!(d.multiplicity, vec![2, 3, 1]);
+        assert_eq!(d.input_index, vec![0, 2, 5]);
+    }
+
+    #[test]
+    fn too_few_distinct_points_lower_the_degree_or_fail() {
+        let opts = FitOptions::default();
+        let out = OutputOptions::default();
+        let lim = Limits::default();
+        let r = fit_line(
+            &json!([[0, 0], [1, 1], [1, 1]]),
+            "/c",
+            vec![],
+            false,
+            &opts,
+            &out,
+            &lim,
+        )
+        .unwrap();
+        assert_eq!(r.report.fields["spline"]["degree"], 1);
+        assert_eq!(r.report.fields["input_points"], 3);
+        let e = fit_line(
+            &json!([[0, 0], [0, 0]]),
+            "/c",
+            vec![],
+            false,
+            &opts,
+            &out,
+            &lim,
+        )
+        .unwrap_err();
+        assert!(matches!(
+            e.problem,
+            Problem::TooFewPoints { distinct: 1, .. }
+        ));
+    }
+
+    #[test]
+    fn antipodal_neighbours_point_at_the_second() {
+        let e = fit_line(
+            &json!([[0, 0], [10, 0], [-170, 0]]),
+            "/c",
+            vec![],
+            false,
+            &FitOptions::default(),
+            &OutputOptions::default(),
+            &Limits::default(),
+        )
+        .unwrap_err();
+        assert_eq!(e.pointer, "/c/2");
+        assert!(matches!(e.problem, Problem::Antipodal { .. }));
+    }
+
+    #[test]
+    fn a_ring_closes_exactly() {
+        let ring = coords(61, |u| {
+            let a = u * std::f64::consts::TAU;
+            (
+                10.0 + 3.0 * a.cos(),
+                45.0 + 2.0 * a.sin() + 0.2 * (5.0 * a).sin(),
+            )
+        });
+        let r = fit_line(
+            &ring,
+            "/c",
+            vec![0],
+            true,
+            &FitOptions::default().with_control_points(12),
+            &OutputOptions::default(),
+            &Limits::default(),
+        )
+        .unwrap();
+        assert_eq!(r.points.first(), r.points.last());
+        let cps = r.report.fields["spline"]["control_points"]
+            .as_array()
+            .unwrap();
+        assert_eq!(cps.first(), cps.last());
+        assert!(r.report.max_error_m < 20_000.0, "{}", r.report.max_error_m);
+        let e = fit_line(
+            &json!([[0, 0], [1, 0], [1, 1], [0, 1]]),
+            "/c",
+            vec![0],
+            true,
+            &FitOptions::default(),
+            &OutputOptions::default(),
+            &Limits::default(),
+        )
+        .unwrap_err();
+        assert_eq!(e.pointer, "/c/3");
+    }
+
+    #[test]
+    fn altitude_follows_the_parameter() {
+        let line = json!([
+            [0, 0, 0],
+            [1, 0, 100],
+            [2, 0, 200],
+            [3, 0, 300],
+            [4, 0, 400]
+        ]);
+        let r = fit_line(
+            &line,
+            "",
+            vec![],
+            false,
+            &FitOptions::default(),
+            &OutputOptions::default(),
+            &Limits::default(),
+        )
+        .unwrap();
+        assert!(r.has_alt);
+        assert_eq!(r.alts[0], 0.0);
+        assert_eq!(*r.alts.last().unwrap(), 400.0);
+        // Along a great circle at constant speed, altitude ~ 100 m per degree of longitude.
+        for (p, a) in r.points.iter().zip(&r.alts) {
+            let (lon, _) = unit_to_lonlat(p);
+            assert!((a - 100.0 * lon).abs() < 1.0, "{lon} {a}");
+        }
+    }
+
+    #[test]
+    fn reported_errors_are_those_of_the_returned_spline() {
+        let line = coords(200, |u| (-20.0 + 40.0 * u, 5.0 * (8.0 * u).sin()));
+        let r = fit_line(
+            &line,
+            "",
+            vec![],
+            false,
+            &FitOptions::default().with_control_points(15),
+            &OutputOptions::default(),
+            &Limits::default(),
+        )
+        .unwrap();
+        let doc = &r.report.fields["spline"];
+        let curve = match curve_from_lonlat_json(doc, "").unwrap() {
+            LonLatCurve::BSpline(s) => s,
+            _ => unreachable!(),
+        };
+        let pts = parse_positions(&line, "").unwrap().points;
+        let params = crate::sphere::knots::parameters(
+            &PointSet::try_from_rows(&pts).unwrap(),
+            crate::sphere::Parameterization::Chord,
+        )
+        .unwrap();
+        let c = curve.evaluate_many(&params);
+        let max = pts
+            .iter()
+            .zip(c.iter())
+            .map(|(p, q)| rad_to_m(angle_between(p, q)))
+            .fold(0.0, f64::max);
+        let reported = r.report.fields["max_error_m"].as_f64().unwrap();
+        assert!((max - reported).abs() < 0.001, "{max} vs {reported}");
+    }
+}

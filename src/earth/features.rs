@@ -1,0 +1,957 @@
+//! GeoJSON documents walked feature by feature.
+//!
+//! [`Document::parse`] splits a FeatureCollection, Feature, bare geometry or (for evaluation) a
+//! bare lon/lat spline document into [`FeatureSlot`]s; [`process_feature`] (or
+//! [`FeatureSlot::process`]) turns one into its output Feature, independently of the others,
+//! so callers may run them in parallel or stream them; [`Document::into_feature_collection`]
+//! puts the results back together in order, with the collection's foreign members.
+
+use super::antimeridian::{cut_line, split_polygon, Position, SphereRing};
+use super::curve::{evaluate_curve, fit_line, interpolate_line, json_kind, output_position};
+use super::curve::{CurveOutput, CurveReport};
+use super::{EarthError, Job, Operation, Problem};
+use rayon::prelude::*;
+use serde_json::{json, Map, Value};
+
+/// Geometry types that hold curves.
+const CURVE_TYPES: [&str; 4] = ["LineString", "MultiLineString", "Polygon", "MultiPolygon"];
+/// Geometry types that pass through unchanged.
+const OTHER_TYPES: [&str; 3] = ["Point", "MultiPoint", "GeometryCollection"];
+
+fn invalid(pointer: impl Into<String>, msg: impl Into<String>) -> EarthError {
+    EarthError::new(pointer, Problem::InvalidGeoJson(msg.into()))
+}
+
+/// What one slot of a document holds.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Source {
+    /// A Feature (a bare geometry is wrapped in one), with the pointer of its geometry.
+    Feature {
+        feature: Value,
+        geometry_pointer: String,
+    },
+    /// A bare lon/lat spline document (evaluation only).
+    Spline(Value),
+}
+
+/// One unit of work: a feature (or spline document) and where it sits in the input.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FeatureSlot {
+    /// JSON pointer of the feature in the input (`/features/3`, or "" for a lone Feature).
+    pub pointer: String,
+    pub source: Source,
+}
+
+/// Counters for one processed feature (all zero when it passed through unchanged).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FeatureStats {
+    /// Curves fitted, interpolated or evaluated.
+    pub curves: usize,
+    /// Input positions of those curves (repeats included).
+    pub input_points: usize,
+    /// Dense output points.
+    pub output_points: usize,
+    /// Numbers stored in the curves (control point coordinates, knots, degrees).
+    pub stored_numbers: usize,
+    /// Largest error of any curve, metres.
+    pub max_error_m: f64,
+}
+
+impl FeatureStats {
+    /// Adds another feature's counters.
+    pub fn merge(&mut self, o: &FeatureStats) {
+        self.curves += o.curves;
+        self.input_points += o.input_points;
+        self.output_points += o.output_points;
+        self.stored_numbers += o.stored_numbers;
+        self.max_error_m = self.max_error_m.max(o.max_error_m);
+    }
+}
+
+/// An output Feature and its counters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProcessedFeature {
+    pub feature: Value,
+    pub stats: FeatureStats,
+}
+
+/// A parsed input document, split into independent slots.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Document {
+    /// Foreign members of a FeatureCollection (everything but `type`, `features`).
+    pub members: Map<String, Value>,
+    /// The features in input order.
+    pub slots: Vec<FeatureSlot>,
+}
+
+impl Document {
+    /// Splits `value` (a FeatureCollection, Feature or geometry; with `allow_spline`, also a
+    /// bare spline document with `"crs": "lonlat"`) into slots. Only the outer structure is
+    /// checked here; each slot is checked when processed.
+    ///
+    /// # Errors
+    /// [`Problem::InvalidGeoJson`] for anything else.
+    pub fn parse(value: Value, allow_spline: bool) -> Result<Document, EarthError> {
+        let Value::Object(mut map) = value else {
+            return Err(invalid(
+                "",
+                format!(
+                    "expected a GeoJSON object (FeatureCollection, Feature or geometry), got {}",
+                    json_kind(&value)
+                ),
+            ));
+        };
+        let is_spline_doc = allow_spline
+            && (map.contains_key("control_points") || map.contains_key("segments"))
+            && matches!(
+                map.get("type").map(|t| t.as_str()),
+                None | Some(Some("bspline")) | Some(Some("beta"))
+            );
+        if is_spline_doc {
+            if map.get("crs").and_then(Value::as_str) != Some("lonlat") {
+                return Err(invalid(
+                    "/crs",
+                    "a bare spline document needs \"crs\": \"lonlat\" (documents of unit vectors go to /v1/sphere/evaluate)",
+                ));
+            }
+            return Ok(Document {
+                members: Map::new(),
+                slots: vec![FeatureSlot {
+                    pointer: String::new(),
+                    source: Source::Spline(Value::Object(map)),
+                }],
+            });
+        }
+        let kind = match map.get("type") {
+            Some(Value::String(s)) => s.clone(),
+            Some(other) => {
+                return Err(invalid(
+                    "/type",
+                    format!("\"type\" must be a string, got {}", json_kind(other)),
+                ))
+            }
+            None => {
+                return Err(invalid(
+                    "",
+                    "missing \"type\": expected a FeatureCollection, Feature or geometry",
+                ))
+            }
+        };
+        check_bbox(&map, "")?;
+        match kind.as_str() {
+            "FeatureCollection" => {
+                let features = match map.remove("features") {
+                    Some(Value::Array(a)) => a,
+                    Some(other) => {
+                        return Err(invalid(
+                            "/features",
+                            format!("\"features\" must be an array, got {}", json_kind(&other)),
+                        ))
+                    }
+                    None => return Err(invalid("", "a FeatureCollection needs \"features\"")),
+                };
+                map.remove("type");
+                let slots = features
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, f)| FeatureSlot {
+                        pointer: format!("/features/{i}"),
+                        source: Source::Feature {
+                            feature: f,
+                            geometry_pointer: format!("/features/{i}/geometry"),
+                        },
+                    })
+                    .collect();
+                Ok(Document {
+                    members: map,
+                    slots,
+                })
+            }
+            "Feature" => Ok(Document {
+                members: Map::new(),
+                slots: vec![FeatureSlot {
+                    pointer: String::new(),
+                    source: Source::Feature {
+                        feature: Value::Object(map),
+                        geometry_pointer: "/geometry".into(),
+                    },
+                }],
+            }),
+            t if CURVE_TYPES.contains(&t) || OTHER_TYPES.contains(&t) => Ok(Document {
+                members: Map::new(),
+                slots: vec![FeatureSlot {
+                    pointer: String::new(),
+                    source: Source::Feature {
+                        feature: json!({"type": "Feature", "properties": null, "geometry": Value::Object(map)}),
+                        geometry_pointer: String::new(),
+                    },
+                }],
+            }),
+            t => Err(invalid(
+                "/type",
+                format!("unknown GeoJSON type {t:?}: expected FeatureCollection, Feature or a geometry type"),
+            )),
+        }
+    }
+
+    /// Input positions in the curve geometries of all slots (what a fit or interpolation will
+    /// process), counted without validating them; for limits. The second value is the index
+    /// of the first slot at which the running count exceeds `limit`, if any.
+    pub fn curve_positions(&self, limit: usize) -> (usize, Option<usize>) {
+        let mut total = 0usize;
+        let mut first_over = None;
+        for (i, slot) in self.slots.iter().enumerate() {
+            if let Source::Feature { feature, .. } = &slot.source {
+                if let Some(g) = feature.get("geometry") {
+                    total += count_positions(g);
+                }
+            }
+            if total > limit && first_over.is_none() {
+                first_over = Some(i);
+            }
+        }
+        (total, first_over)
+    }
+
+    /// The output FeatureCollection: `features` in input order and the input collection's
+    /// foreign members (its `bbox` is dropped when any feature changed).
+    pub fn into_feature_collection(self, features: Vec<Value>, changed: bool) -> Value {
+        let mut out = Map::new();
+        out.insert("type".into(), json!("FeatureCollection"));
+        for (k, v) in self.members {
+            if k == "bbox" && changed {
+                continue;
+            }
+            out.insert(k, v);
+        }
+        out.insert("features".into(), Value::Array(features));
+        Value::Object(out)
+    }
+}
+
+fn count_positions(geometry: &Value) -> usize {
+    let kind = geometry.get("type").and_then(Value::as_str).unwrap_or("");
+    let depth = match kind {
+        "LineString" => 1,
+        "MultiLineString" | "Polygon" => 2,
+        "MultiPolygon" => 3,
+        _ => return 0,
+    };
+    fn count(v: &Value, depth: usize) -> usize {
+        match v.as_array() {
+            None => 0,
+            Some(a) if depth == 1 => a.len(),
+            Some(a) => a.iter().map(|x| count(x, depth - 1)).sum(),
+        }
+    }
+    geometry.get("coordinates").map_or(0, |c| count(c, depth))
+}
+
+impl FeatureSlot {
+    /// Processes this slot with `job`.
+    ///
+    /// # Errors
+    /// The first problem found, with a pointer into the input document.
+    pub fn process(&self, job: &Job) -> Result<ProcessedFeature, EarthError> {
+        match &self.source {
+            Source::Feature {
+                feature,
+                geometry_pointer,
+            } => process_feature_at(feature, &self.pointer, geometry_pointer, job),
+            Source::Spline(doc) => evaluate_spline_document(doc, &self.pointer, job),
+        }
+    }
+}
+
+/// Processes one GeoJSON Feature found at `pointer` in its document (`/features/3`; "" for a
+/// lone Feature or one record of a text sequence). Curve geometries are fitted, interpolated or
+/// evaluated as `job` says; anything else comes back unchanged with zero stats.
+///
+/// # Errors
+/// The first problem found, with a pointer into the input document.
+pub fn process_feature(
+    feature: &Value,
+    pointer: &str,
+    job: &Job,
+) -> Result<ProcessedFeature, EarthError> {
+    process_feature_at(feature, pointer, &format!("{pointer}/geometry"), job)
+}
+
+/// Processes a bare geometry found at `pointer`, returning a Feature (`properties` holds only
+/// what the operation adds).
+///
+/// # Errors
+/// As [`process_feature`].
+pub fn process_geometry(
+    geometry: &Value,
+    pointer: &str,
+    job: &Job,
+) -> Result<ProcessedFeature, EarthError> {
+    let feature = json!({"type": "Feature", "properties": null, "geometry": geometry});
+    process_feature_at(&feature, pointer, pointer, job)
+}
+
+fn process_feature_at(
+    feature: &Value,
+    pointer: &str,
+    geometry_pointer: &str,
+    job: &Job,
+) -> Result<ProcessedFeature, EarthError> {
+    let map = feature.as_object().ok_or_else(|| {
+        invalid(
+            pointer,
+            format!("expected a Feature object, got {}", json_kind(feature)),
+        )
+    })?;
+    if map.get("type").and_then(Value::as_str) != Some("Feature") {
+        return Err(invalid(
+            format!("{pointer}/type"),
+            "expected \"type\": \"Feature\"",
+        ));
+    }
+    let geometry = map.get("geometry").ok_or_else(|| {
+        invalid(
+            pointer,
+            "a Feature needs a \"geometry\" member (null for none)",
+        )
+    })?;
+    match map.get("properties") {
+        Some(Value::Null) | Some(Value::Object(_)) => {}
+        None => {
+            return Err(invalid(
+                pointer,
+                "a Feature needs a \"properties\" member (null for none)",
+            ))
+        }
+        Some(other) => {
+            return Err(invalid(
+                format!("{pointer}/properties"),
+                format!(
+                    "\"properties\" must be an object or null, got {}",
+                    json_kind(other)
+                ),
+            ))
+        }
+    }
+    match map.get("id") {
+        None | Some(Value::String(_)) | Some(Value::Number(_)) => {}
+        Some(other) => {
+            return Err(invalid(
+                format!("{pointer}/id"),
+                format!(
+                    "a Feature id must be a string or a number, got {}",
+                    json_kind(other)
+                ),
+            ))
+        }
+    }
+    check_bbox(map, pointer)?;
+    let result = match &job.operation {
+        Operation::Fit(_) | Operation::Interpolate(_) => {
+            curves_of_geometry(geometry, geometry_pointer, job)?
+        }
+        Operation::Evaluate => curves_of_fit(map, pointer, job)?,
+    };
+    let Some((geometry_out, info, stats)) = result else {
+        return Ok(ProcessedFeature {
+            feature: feature.clone(),
+            stats: FeatureStats::default(),
+        });
+    };
+    let mut out = map.clone();
+    out.remove("bbox");
+    out.insert("geometry".into(), geometry_out);
+    let key = match job.operation {
+        Operation::Fit(_) => "fit",
+        Operation::Interpolate(_) => "interpolation",
+        Operation::Evaluate => "evaluation",
+    };
+    let mut props = match out.remove("properties") {
+        Some(Value::Object(p)) => p,
+        _ => Map::new(),
+    };
+    props.insert(key.into(), info);
+    out.insert("properties".into(), Value::Object(props));
+    Ok(ProcessedFeature {
+        feature: Value::Object(out),
+        stats,
+    })
+}
+
+/// A curve to make: its coordinates (or document), pointer, path and whether it is a ring.
+struct CurveJob<'a> {
+    value: &'a Value,
+    pointer: String,
+    path: Vec<usize>,
+    closed: bool,
+    known_error_m: Option<f64>,
+}
+
+type Made = Option<(Value, Value, FeatureStats)>;
+
+fn array_at<'a>(v: &'a Value, pointer: &str, what: &str) -> Result<&'a Vec<Value>, EarthError> {
+    v.as_array().ok_or_else(|| {
+        invalid(
+            pointer,
+            format!("expected an array of {what}, got {}", json_kind(v)),
+        )
+    })
+}
+
+/// Fits or interpolates the curves of a geometry; `None` for geometries that pass through.
+fn curves_of_geometry(geometry: &Value, ptr: &str, job: &Job) -> Result<Made, EarthError> {
+    if geometry.is_null() {
+        return Ok(None);
+    }
+    let gmap = geometry.as_object().ok_or_else(|| {
+        invalid(
+            ptr,
+            format!(
+                "a geometry must be an object or null, got {}",
+                json_kind(geometry)
+            ),
+        )
+    })?;
+    let kind = match gmap.get("type") {
+        Some(Value::String(s)) => s.as_str(),
+        _ => {
+            return Err(invalid(
+                format!("{ptr}/type"),
+                "a geometry needs a string \"type\"",
+            ))
+        }
+    };
+    check_bbox(gmap, ptr)?;
+    if OTHER_TYPES.contains(&kind) {
+        check_other_geometry(gmap, kind, ptr, 0)?;
+        return Ok(None);
+    }
+    if !CURVE_TYPES.contains(&kind) {
+        return Err(invalid(
+            format!("{ptr}/type"),
+            format!("unknown geometry type {kind:?}"),
+        ));
+    }
+    let cptr = format!("{ptr}/coordinates");
+    let coords = gmap
+        .get("coordinates")
+        .ok_or_else(|| invalid(ptr, format!("a {kind} needs \"coordinates\"")))?;
+    let mut jobs = Vec::new();
+    let mk = |value, pointer, path, closed| CurveJob {
+        value,
+        pointer,
+        path,
+        closed,
+        known_error_m: None,
+    };
+    match kind {
+        "LineString" => jobs.push(mk(coords, cptr.clone(), vec![], false)),
+        "MultiLineString" | "Polygon" => {
+            let closed = kind == "Polygon";
+            let what = if closed { "rings" } else { "lines" };
+            for (i, part) in array_at(coords, &cptr, what)?.iter().enumerate() {
+                jobs.push(mk(part, format!("{cptr}/{i}"), vec![i], closed));
+            }
+        }
+        _ => {
+            for (i, poly) in array_at(coords, &cptr, "polygons")?.iter().enumerate() {
+                let pptr = format!("{cptr}/{i}");
+                for (r, ring) in array_at(poly, &pptr, "rings")?.iter().enumerate() {
+                    jobs.push(mk(ring, format!("{pptr}/{r}"), vec![i, r], true));
+                }
+            }
+        }
+    }
+    if jobs.is_empty() {
+        return Ok(None);
+    }
+    let outputs = run_curves(&jobs, job)?;
+    assemble(kind, outputs, job).map(Some)
+}
+
+/// Checks a `bbox` member, if any: an array of 2n numbers, n >= 2 (RFC 7946 §5).
+fn check_bbox(map: &Map<String, Value>, ptr: &str) -> Result<(), EarthError> {
+    let Some(b) = map.get("bbox") else {
+        return Ok(());
+    };
+    let ok = b
+        .as_array()
+        .is_some_and(|a| (a.len() == 4 || a.len() == 6) && a.iter().all(Value::is_number));
+    if ok {
+        Ok(())
+    } else {
+        Err(invalid(
+            format!("{ptr}/bbox"),
+            "a bbox is an array of 4 or 6 numbers",
+        ))
+    }
+}
+
+/// Nesting limit for GeometryCollections (RFC 7946 discourages nesting them at all).
+const MAX_COLLECTION_DEPTH: usize = 32;
+
+/// Checks a geometry that passes through unchanged (Point, MultiPoint, GeometryCollection):
+/// the same position rules as for lines, so what comes out is valid GeoJSON.
+fn check_other_geometry(
+    gmap: &Map<String, Value>,
+    kind: &str,
+    ptr: &str,
+    depth: usize,
+) -> Result<(), EarthError> {
+    if kind == "GeometryCollection" {
+        if depth >= MAX_COLLECTION_DEPTH {
+            return Err(invalid(ptr, "GeometryCollections nested too deeply"));
+        }
+        let gptr = format!("{ptr}/geometries");
+        let geoms = gmap
+            .get("geometries")
+            .ok_or_else(|| invalid(ptr, "a GeometryCollection needs \"geometries\""))?;
+        for (i, g) in array_at(geoms, &gptr, "geometries")?.iter().enumerate() {
+            let iptr = format!("{gptr}/{i}");
+            let m = g.as_object().ok_or_else(|| {
+                invalid(
+                    &iptr,
+                    format!("a geometry must be an object, got {}", json_kind(g)),
+                )
+            })?;
+            let k = m.get("type").and_then(Value::as_str).unwrap_or("");
+            check_bbox(m, &iptr)?;
+            if OTHER_TYPES.contains(&k) {
+                check_other_geometry(m, k, &iptr, depth + 1)?;
+            } else if CURVE_TYPES.contains(&k) {
+                let depth_of = match k {
+                    "LineString" => 1,
+                    "MultiLineString" | "Polygon" => 2,
+                    _ => 3,
+                };
+                let c = m
+                    .get("coordinates")
+                    .ok_or_else(|| invalid(&iptr, format!("a {k} needs \"coordinates\"")))?;
+                check_nested_positions(c, &format!("{iptr}/coordinates"), depth_of)?;
+            } else {
+                return Err(invalid(
+                    format!("{iptr}/type"),
+                    format!("unknown geometry type {k:?}"),
+                ));
+            }
+        }
+        return Ok(());
+    }
+    let c = gmap
+        .get("coordinates")
+        .ok_or_else(|| invalid(ptr, format!("a {kind} needs \"coordinates\"")))?;
+    let cptr = format!("{ptr}/coordinates");
+    if kind == "Point" {
+        super::curve::parse_positions(&Value::Array(vec![c.clone()]), "")
+            .map_err(|e| EarthError::new(format!("{cptr}{}", &e.pointer[2..]), e.problem))?;
+        Ok(())
+    } else {
+        check_nested_positions(c, &cptr, 1)
+    }
+}
+
+/// Checks arrays of positions nested `depth` deep (1: a line's positions).
+fn check_nested_positions(v: &Value, ptr: &str, depth: usize) -> Result<(), EarthError> {
+    if depth == 1 {
+        return super::curve::parse_positions(v, ptr).map(|_| ());
+    }
+    for (i, x) in array_at(v, ptr, "arrays of positions")?.iter().enumerate() {
+        check_nested_positions(x, &format!("{ptr}/{i}"), depth - 1)?;
+    }
+    Ok(())
+}
+
+/// Reads the curves stored in `properties.fit` (or `properties.interpolation`) for evaluation;
+/// `None` when the feature has none.
+fn curves_of_fit(feature: &Map<String, Value>, ptr: &str, job: &Job) -> Result<Made, EarthError> {
+    let props = match feature.get("properties") {
+        Some(Value::Object(p)) => p,
+        _ => return Ok(None),
+    };
+    let (key, doc_key) = if props.get("fit").is_some_and(Value::is_object) {
+        ("fit", "spline")
+    } else if props.get("interpolation").is_some_and(Value::is_object) {
+        ("interpolation", "curve")
+    } else {
+        return Ok(None);
+    };
+    let info = &props[key];
+    let iptr = format!("{ptr}/properties/{key}");
+    let known = |v: &Value| v.get("max_error_m").and_then(Value::as_f64);
+    if let Some(doc) = info.get(doc_key) {
+        let jobs = vec![CurveJob {
+            value: doc,
+            pointer: format!("{iptr}/{doc_key}"),
+            path: vec![],
+            closed: false,
+            known_error_m: known(info),
+        }];
+        let outputs = run_curves(&jobs, job)?;
+        return assemble("LineString", outputs, job).map(Some);
+    }
+    let Some(parts) = info.get("parts") else {
+        return Err(invalid(
+            iptr,
+            format!(
+                "expected \"{doc_key}\" or \"parts\" (as written by /v1/fit or /v1/interpolate)"
+            ),
+        ));
+    };
+    let kind =
+        match info.get("geometry").and_then(Value::as_str) {
+            Some(k) if CURVE_TYPES.contains(&k) => k,
+            _ => return Err(invalid(
+                format!("{iptr}/geometry"),
+                "expected the geometry type of the parts: MultiLineString, Polygon or MultiPolygon",
+            )),
+        };
+    let need_path = match kind {
+        "MultiPolygon" => 2,
+        "LineString" => 0,
+        _ => 1,
+    };
+    let mut jobs = Vec::new();
+    for (i, part) in array_at(parts, &format!("{iptr}/parts"), "parts")?
+        .iter()
+        .enumerate()
+    {
+        let pptr = format!("{iptr}/parts/{i}");
+        let path: Option<Vec<usize>> = part
+            .get("path")
+            .and_then(Value::as_array)
+            .and_then(|a| a.iter().map(|x| x.as_u64().map(|u| u as usize)).collect());
+        let path = match path {
+            Some(p) if p.len() == need_path => p,
+            _ => {
+                return Err(invalid(
+                    format!("{pptr}/path"),
+                    format!("expected {need_path} indices locating this part in a {kind}"),
+                ))
+            }
+        };
+        let doc = part
+            .get(doc_key)
+            .ok_or_else(|| invalid(&pptr, format!("a part needs \"{doc_key}\"")))?;
+        jobs.push(CurveJob {
+            value: doc,
+            pointer: format!("{pptr}/{doc_key}"),
+            path,
+            closed: kind.ends_with("Polygon"),
+            known_error_m: known(part),
+        });
+    }
+    if jobs.is_empty() {
+        return Ok(None);
+    }
+    // Parts in geometry order, whatever order the document lists them in.
+    jobs.sort_by(|a, b| a.path.cmp(&b.path));
+    let outputs = run_curves(&jobs, job)?;
+    assemble(kind, outputs, job).map(Some)
+}
+
+/// Runs the curves of one geometry in parallel; the first error in order wins.
+fn run_curves(jobs: &[CurveJob<'_>], job: &Job) -> Result<Vec<CurveOutput>, EarthError> {
+    let one = |c: &CurveJob<'_>| match &job.operation {
+        Operation::Fit(o) => fit_line(
+            c.value,
+            &c.pointer,
+            c.path.clone(),
+            c.closed,
+            o,
+            &job.output,
+            &job.limits,
+        ),
+        Operation::Interpolate(s) => interpolate_line(
+            c.value,
+            &c.pointer,
+            c.path.clone(),
+            c.closed,
+            s,
+            &job.output,
+            &job.limits,
+        ),
+        Operation::Evaluate => evaluate_curve(
+            c.value,
+            &c.pointer,
+            c.path.clone(),
+            c.closed,
+            c.known_error_m,
+            &job.output,
+            &job.limits,
+        ),
+    };
+    if jobs.len() == 1 {
+        return Ok(vec![one(&jobs[0])?]);
+    }
+    jobs.par_iter()
+        .map(one)
+        .collect::<Vec<_>>()
+        .into_iter()
+        .collect()
+}
+
+fn positions_json(ps: &[Position], has_alt: bool, precision: u32) -> Value {
+    Value::Array(
+        ps.iter()
+            .map(|p| output_position(p, has_alt, precision))
+            .collect(),
+    )
+}
+
+/// Builds the output geometry, the properties object and the stats from fitted curves.
+fn assemble(
+    kind: &str,
+    outputs: Vec<CurveOutput>,
+    job: &Job,
+) -> Result<(Value, Value, FeatureStats), EarthError> {
+    let precision = job.output.precision;
+    let geometry = match kind {
+        "LineString" | "MultiLineString" => {
+            let mut pieces = Vec::new();
+            for c in &outputs {
+                for piece in cut_line(&c.points, &c.alts) {
+                    pieces.push(positions_json(&piece, c.has_alt, precision));
+                }
+            }
+            if kind == "LineString" && pieces.len() == 1 {
+                json!({"type": "LineString", "coordinates": pieces.pop().expect("one piece")})
+            } else {
+                json!({"type": "MultiLineString", "coordinates": pieces})
+            }
+        }
+        _ => {
+            // Group rings by polygon (path [ring] for a Polygon, [polygon, ring] otherwise).
+            let mut polygons: Vec<(usize, Vec<&CurveOutput>)> = Vec::new();
+            for c in &outputs {
+                let key = if kind == "Polygon" {
+                    0
+                } else {
+                    c.report.path[0]
+                };
+                match polygons.last_mut() {
+                    Some((k, rings)) if *k == key => rings.push(c),
+                    _ => polygons.push((key, vec![c])),
+                }
+            }
+            let mut pieces = Vec::new();
+            for (_, rings) in &polygons {
+                let has_alt = rings.iter().all(|r| r.has_alt);
+                let sphere_rings: Vec<SphereRing> = rings
+                    .iter()
+                    .map(|r| SphereRing {
+                        points: r.points.clone(),
+                        alts: r.alts.clone(),
+                    })
+                    .collect();
+                let split = split_polygon(&sphere_rings).map_err(|m| {
+                    let ptr = rings.first().map_or("", |r| r.pointer.as_str());
+                    EarthError::new(ptr, Problem::InvalidRing(m))
+                })?;
+                for poly in split {
+                    pieces.push(Value::Array(
+                        poly.iter()
+                            .map(|ring| positions_json(ring, has_alt, precision))
+                            .collect(),
+                    ));
+                }
+            }
+            if kind == "Polygon" && pieces.len() == 1 {
+                json!({"type": "Polygon", "coordinates": pieces.pop().expect("one piece")})
+            } else {
+                json!({"type": "MultiPolygon", "coordinates": pieces})
+            }
+        }
+    };
+    let mut stats = FeatureStats::default();
+    for c in &outputs {
+        stats.curves += 1;
+        stats.input_points += c.report.input_points;
+        stats.output_points += c.report.output_points;
+        stats.stored_numbers += c.report.stored_numbers;
+        stats.max_error_m = stats.max_error_m.max(c.report.max_error_m);
+    }
+    let info = properties_object(kind, outputs.into_iter().map(|c| c.report).collect(), job);
+    Ok((geometry, info, stats))
+}
+
+/// `properties.fit` (or `interpolation`, `evaluation`): a LineString's fields directly; for
+/// other geometries, totals over the parts plus `geometry` and `parts`.
+fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> Value {
+    if kind == "LineString" && reports.len() == 1 {
+        return Value::Object(reports.pop().expect("one report").fields);
+    }
+    let mut out = Map::new();
+    let n_in: usize = reports.iter().map(|r| r.input_points).sum();
+    let sum = |f: &dyn Fn(&CurveReport) -> usize| reports.iter().map(f).sum::<usize>();
+    let round_m = |x: f64| super::lonlat::round_to(x, 3);
+    if !matches!(job.operation, Operation::Evaluate) {
+        let max = reports.iter().map(|r| r.max_error_m).fold(0.0, f64::max);
+        out.insert("max_error_m".into(), json!(round_m(max)));
+        if matches!(job.operation, Operation::Fit(_)) {
+            let s: f64 = reports.iter().map(|r| r.error_sum_m).sum();
+            let sq: f64 = reports.iter().map(|r| r.error_sq_sum_m2).sum();
+            let n = n_in.max(1) as f64;
+            out.insert("mean_error_m".into(), json!(round_m(s / n)));
+            out.insert("rms_error_m".into(), json!(round_m((sq / n).sqrt())));
+        }
+        out.insert("input_points".into(), json!(n_in));
+    }
+    if let Operation::Fit(o) = &job.operation {
+        let ctrl: usize = reports
+            .iter()
+            .filter_map(|r| r.fields.get("control_points").and_then(Value::as_u64))
+            .sum::<u64>() as usize;
+        out.insert("control_points".into(), json!(ctrl));
+        let iters = reports
+            .iter()
+            .filter_map(|r| r.fields.get("iterations").and_then(Value::as_u64))
+            .max()
+            .unwrap_or(0);
+        out.insert("iterations".into(), json!(iters));
+        let converged = reports
+            .iter()
+            .all(|r| r.fields.get("converged") == Some(&Value::Bool(true)));
+        out.insert("converged".into(), json!(converged));
+        out.insert(
+            "knots".into(),
+            serde_json::to_value(o.knots).expect("enum serialises"),
+        );
+        out.insert(
+            "parameterization".into(),
+            serde_json::to_value(o.parameterization).expect("enum serialises"),
+        );
+    }
+    out.insert(
+        "output_points".into(),
+        json!(sum(&|r: &CurveReport| r.output_points)),
+    );
+    let dev = reports
+        .iter()
+        .filter_map(|r| r.fields.get("sampling_deviation_m").and_then(Value::as_f64))
+        .fold(0.0, f64::max);
+    out.insert("sampling_deviation_m".into(), json!(dev));
+    out.insert("geometry".into(), json!(kind));
+    let parts: Vec<Value> = reports
+        .into_iter()
+        .map(|r| {
+            let mut m = Map::new();
+            m.insert("path".into(), json!(r.path));
+            m.insert("closed".into(), json!(r.closed));
+            m.extend(r.fields);
+            Value::Object(m)
+        })
+        .collect();
+    out.insert("parts".into(), Value::Array(parts));
+    Value::Object(out)
+}
+
+/// Samples a bare lon/lat spline document (`{"crs": "lonlat", "degree", "knots",
+/// "control_points"}` or a Beta-spline document) at `pointer` into a Feature whose
+/// `properties.evaluation` says how densely.
+///
+/// # Errors
+/// An invalid document, or output over the limits.
+pub fn evaluate_spline_document(
+    doc: &Value,
+    pointer: &str,
+    job: &Job,
+) -> Result<ProcessedFeature, EarthError> {
+    let out = evaluate_curve(doc, pointer, vec![], false, None, &job.output, &job.limits)?;
+    let (geometry, info, stats) = assemble("LineString", vec![out], job)?;
+    Ok(ProcessedFeature {
+        feature: json!({"type": "Feature", "properties": {"evaluation": info}, "geometry": geometry}),
+        stats,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sphere::FitOptions;
+
+    fn wave(n: usize, lon0: f64) -> Value {
+        json!((0..n)
+            .map(|i| [lon0 + i as f64 * 0.05, 2.0 * (i as f64 * 0.2).sin()])
+            .collect::<Vec<_>>())
+    }
+
+    #[test]
+    fn collection_order_ids_and_members_survive() {
+        let doc = json!({
+            "type": "FeatureCollection", "name": "test", "bbox": [0, 0, 1, 1],
+            "features": [
+                {"type": "Feature", "id": "a", "properties": {"k": 1}, "geometry": {"type": "Point", "coordinates": [1, 2]}},
+                {"type": "Feature", "id": 2, "properties": null, "foo": [1], "bbox": [0, 0, 0, 0],
+                 "geometry": {"type": "LineString", "coordinates": wave(40, 0.0)}},
+                {"type": "Feature", "properties": {}, "geometry": null}
+            ]
+        });
+        let d = Document::parse(doc.clone(), false).unwrap();
+        let job = Job::fit(FitOptions::default());
+        let outs: Vec<ProcessedFeature> =
+            d.slots.iter().map(|s| s.process(&job).unwrap()).collect();
+        assert_eq!(outs[0].feature, doc["features"][0]);
+        assert_eq!(outs[2].feature, doc["features"][2]);
+        let f = &outs[1].feature;
+        assert_eq!(f["id"], 2);
+        assert_eq!(f["foo"], json!([1]));
+        assert!(f.get("bbox").is_none());
+        assert!(f["properties"]["fit"]["max_error_m"].is_number());
+        assert_eq!(outs[1].stats.curves, 1);
+        let fc = d.into_feature_collection(outs.into_iter().map(|o| o.feature).collect(), true);
+        assert_eq!(fc["name"], "test");
+        assert!(fc.get("bbox").is_none());
+        assert_eq!(fc["features"].as_array().unwrap().len(), 3);
+    }
+
+    #[test]
+    fn errors_point_into_the_collection() {
+        let doc = json!({"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": {}, "geometry": {"type": "LineString", "coordinates": wave(10, 0.0)}},
+            {"type": "Feature", "properties": {}, "geometry": {"type": "MultiLineString", "coordinates": [wave(10, 0.0), [[0, 0], [1, 95]]]}}
+        ]});
+        let d = Document::parse(doc, false).unwrap();
+        let job = Job::fit(FitOptions::default());
+        assert!(d.slots[0].process(&job).is_ok());
+        let e = d.slots[1].process(&job).unwrap_err();
+        assert_eq!(e.pointer, "/features/1/geometry/coordinates/1/1/1");
+    }
+
+    #[test]
+    fn fit_then_evaluate_reproduces_the_geometry() {
+        let doc =
+            json!({"type": "MultiLineString", "coordinates": [wave(30, 0.0), wave(30, 20.0)]});
+        let job =
+            Job::fit(FitOptions::default()).with_sampling(super::super::Sampling::Samples(50));
+        let fitted = Document::parse(doc, false).unwrap().slots[0]
+            .process(&job)
+            .unwrap()
+            .feature;
+        assert_eq!(
+            fitted["properties"]["fit"]["parts"]
+                .as_array()
+                .unwrap()
+                .len(),
+            2
+        );
+        let ev_job = Job::evaluate().with_sampling(super::super::Sampling::Samples(50));
+        let evaluated = process_feature(&fitted, "", &ev_job).unwrap().feature;
+        assert_eq!(evaluated["geometry"], fitted["geometry"]);
+    }
+
+    #[test]
+    fn bare_spline_documents_need_a_crs() {
+        let doc = json!({"degree": 1, "knots": [0, 0, 1, 1], "control_points": [[0, 0], [10, 0]]});
+        let e = Document::parse(doc.clone(), true).unwrap_err();
+        assert_eq!(e.pointer, "/crs");
+        let mut with_crs = doc;
+        with_crs["crs"] = json!("lonlat");
+        let d = Document::parse(with_crs, true).unwrap();
+        let out = d.slots[0]
+            .process(&Job::evaluate().with_sampling(super::super::Sampling::Samples(11)))
+            .unwrap();
+        let coords = out.feature["geometry"]["coordinates"].as_array().unwrap();
+        assert_eq!(coords.len(), 11);
+        assert_eq!(coords[5], json!([5.0, 0.0]));
+    }
+}

@@ -1,0 +1,383 @@
+//! S^2 as the Earth: lon/lat <-> unit vectors, metres, the antimeridian, and GeoJSON in and out.
+//!
+//! Built on [`crate::sphere`] (which knows nothing of degrees or metres); used by the HTTP
+//! service and the command line alike, so both give the same output for the same options.
+//!
+//! * [`lonlat`]: degrees <-> unit vectors, radians <-> metres (mean radius 6,371,008.8 m).
+//! * [`antimeridian`]: lon/lat output cut at ±180 degrees (RFC 7946 §3.1.9), poles.
+//! * [`sampling`]: dense output of a curve (`samples`, `spacing_m`, or automatic).
+//! * [`curve`]: one line or ring: positions parsed and checked, repeats dropped, fitted.
+//! * [`features`]: GeoJSON documents walked feature by feature ([`process_feature`]).
+//!
+//! # What happens to a GeoJSON document
+//! * LineString and each part of a MultiLineString is fitted on its own; each Polygon and
+//!   MultiPolygon ring is fitted as a closed curve (its end control points are pinned together,
+//!   so the curve closes exactly at the ring's first vertex, with a possible corner there).
+//!   Every other geometry (Point, MultiPoint, GeometryCollection, `null`) passes through
+//!   unchanged, as do `properties`, `id`, foreign members and the order of features. A fitted
+//!   feature gets `properties.fit` (overwriting one that is there) and loses a stale `bbox`.
+//! * Positions are `[lon, lat]` or `[lon, lat, altitude]` (all of one kind per line). Longitude
+//!   must be in [-180, 180] and latitude in [-90, 90]: values outside are rejected, never
+//!   wrapped. The altitude is carried along the curve parameter: an output point at parameter t
+//!   gets the altitude interpolated linearly between the input points around t.
+//! * Repeated consecutive positions are dropped before fitting; their error (that of the kept
+//!   copy) still counts in the metrics and in `input_points`. When fewer distinct positions
+//!   remain than `degree + 1`, the degree is lowered to `distinct - 1`; one distinct position
+//!   is an error.
+//! * Errors are parametric geodesic distances in metres (METHOD.md): the distance from each
+//!   input point to the curve at that point's parameter, measured with the spline as returned
+//!   (control points rounded to `precision`).
+//!
+//! # Reuse (the batch CLI)
+//! [`process_feature`] handles one Feature at a time and is all a streaming reader needs:
+//! ```
+//! use spherefit::earth::{process_feature, Job};
+//! let feature = serde_json::json!({
+//!     "type": "Feature", "id": 7, "properties": {"name": "wave"},
+//!     "geometry": {"type": "LineString", "coordinates":
+//!         (0..50).map(|i| [i as f64 * 0.1, (i as f64 * 0.3).sin()]).collect::<Vec<_>>()}
+//! });
+//! let out = process_feature(&feature, "/features/0", &Job::fit(Default::default())).unwrap();
+//! assert_eq!(out.feature["id"], 7);
+//! assert!(out.feature["properties"]["fit"]["max_error_m"].as_f64().unwrap() < 5_000.0);
+//! assert_eq!(out.stats.curves, 1);
+//! ```
+
+pub mod antimeridian;
+pub mod curve;
+pub mod features;
+pub mod lonlat;
+pub mod sampling;
+
+pub use features::{
+    evaluate_spline_document, process_feature, process_geometry, Document, FeatureSlot,
+    FeatureStats, ProcessedFeature, Source,
+};
+pub use lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, unit_to_lonlat, LonLat, EARTH_RADIUS_M};
+pub use sampling::Sampling;
+
+use crate::sphere::{FitOptions, SphereError};
+
+/// Highest `precision` (decimals of output degrees): 1e-15 degrees is below f64 resolution.
+pub const MAX_PRECISION: u32 = 15;
+
+/// Default output precision: 7 decimals of a degree is 1.1 cm or less.
+pub const DEFAULT_PRECISION: u32 = 7;
+
+/// Bounds on the work one curve may ask for. Checked before fitting.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Limits {
+    /// Most control points per curve.
+    pub max_control_points: usize,
+    /// Most output points per curve (`samples`, or what `spacing_m` or automatic sampling need).
+    pub max_samples: usize,
+    /// Most GLS-PIA iterations.
+    pub max_iterations: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_control_points: 10_000,
+            max_samples: 100_000,
+            max_iterations: 1_000,
+        }
+    }
+}
+
+/// Shape parameters of Beta-spline interpolation (`/v1/interpolate`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct InterpolateSettings {
+    /// Bias (1 = none), at every vertex.
+    pub beta1: f64,
+    /// Tension (0 = none), at every vertex.
+    pub beta2: f64,
+}
+
+impl Default for InterpolateSettings {
+    fn default() -> Self {
+        InterpolateSettings {
+            beta1: 1.0,
+            beta2: 0.0,
+        }
+    }
+}
+
+/// What to do with each curve.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Operation {
+    /// Fit a spherical B-spline (GLS-PIA) to each line and ring.
+    Fit(FitOptions),
+    /// Interpolate every vertex with a spherical Beta-spline.
+    Interpolate(InterpolateSettings),
+    /// Sample the splines stored in `properties.fit` (or a bare lon/lat spline document).
+    Evaluate,
+}
+
+/// How output lines are made.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutputOptions {
+    /// Density of output lines.
+    pub sampling: Sampling,
+    /// Decimals of output degrees (control points included).
+    pub precision: u32,
+}
+
+impl Default for OutputOptions {
+    fn default() -> Self {
+        OutputOptions {
+            sampling: Sampling::Auto,
+            precision: DEFAULT_PRECISION,
+        }
+    }
+}
+
+/// Everything [`process_feature`] needs: the operation, the output options and the limits.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Job {
+    pub operation: Operation,
+    pub output: OutputOptions,
+    pub limits: Limits,
+}
+
+impl Job {
+    /// A fit with default output options and limits.
+    pub fn fit(options: FitOptions) -> Job {
+        Job {
+            operation: Operation::Fit(options),
+            output: OutputOptions::default(),
+            limits: Limits::default(),
+        }
+    }
+
+    /// An evaluation with default output options and limits.
+    pub fn evaluate() -> Job {
+        Job {
+            operation: Operation::Evaluate,
+            output: OutputOptions::default(),
+            limits: Limits::default(),
+        }
+    }
+
+    /// An interpolation with default output options and limits.
+    pub fn interpolate(settings: InterpolateSettings) -> Job {
+        Job {
+            operation: Operation::Interpolate(settings),
+            output: OutputOptions::default(),
+            limits: Limits::default(),
+        }
+    }
+
+    /// Sets the sampling.
+    pub fn with_sampling(mut self, s: Sampling) -> Job {
+        self.output.sampling = s;
+        self
+    }
+
+    /// Sets the precision.
+    pub fn with_precision(mut self, decimals: u32) -> Job {
+        self.output.precision = decimals;
+        self
+    }
+
+    /// Sets the limits.
+    pub fn with_limits(mut self, limits: Limits) -> Job {
+        self.limits = limits;
+        self
+    }
+
+    /// Checks the options against their ranges and the limits, once, before any work.
+    ///
+    /// # Errors
+    /// [`Problem::InvalidOption`] naming the option (`degree`, `control_points`, ...).
+    pub fn validate(&self) -> Result<(), EarthError> {
+        let bad = |option: &'static str, message: String| {
+            Err(EarthError::new(
+                "",
+                Problem::InvalidOption { option, message },
+            ))
+        };
+        if self.output.precision > MAX_PRECISION {
+            return bad(
+                "precision",
+                format!(
+                    "{} decimals: use 0 to {MAX_PRECISION}",
+                    self.output.precision
+                ),
+            );
+        }
+        match self.output.sampling {
+            Sampling::Auto => {}
+            Sampling::Samples(n) => {
+                if n < 2 || n > self.limits.max_samples {
+                    return bad(
+                        "samples",
+                        format!(
+                            "{n} samples: use 2 to {} per line (the server's limit)",
+                            self.limits.max_samples
+                        ),
+                    );
+                }
+            }
+            Sampling::SpacingM(s) | Sampling::SpacingAndSamples { spacing_m: s, .. } => {
+                if let Sampling::SpacingAndSamples { samples: n, .. } = self.output.sampling {
+                    if n < 2 || n > self.limits.max_samples {
+                        return bad(
+                            "samples",
+                            format!(
+                                "{n} samples: use 2 to {} per line (the server's limit)",
+                                self.limits.max_samples
+                            ),
+                        );
+                    }
+                }
+                if !(s.is_finite() && s > 0.0) {
+                    return bad(
+                        "spacing_m",
+                        format!("{s}: the spacing must be a positive number of metres"),
+                    );
+                }
+            }
+        }
+        match &self.operation {
+            Operation::Fit(o) => {
+                let max_degree = crate::sphere::bspline::MAX_DEGREE;
+                if o.degree == 0 || o.degree > max_degree {
+                    return bad(
+                        "degree",
+                        format!("degree {}: use 1 to {max_degree}", o.degree),
+                    );
+                }
+                if let Some(n) = o.control_points {
+                    if n < o.degree + 1 || n > self.limits.max_control_points {
+                        return bad(
+                            "control_points",
+                            format!(
+                                "{n} control points: use degree + 1 = {} to {} (the server's limit)",
+                                o.degree + 1,
+                                self.limits.max_control_points
+                            ),
+                        );
+                    }
+                }
+                if o.iterations > self.limits.max_iterations {
+                    return bad(
+                        "iterations",
+                        format!(
+                            "{} iterations: use 0 to {} (the server's limit)",
+                            o.iterations, self.limits.max_iterations
+                        ),
+                    );
+                }
+                if o.knot_vector.is_some() {
+                    return bad(
+                        "knots",
+                        "explicit knot vectors are not supported for GeoJSON".into(),
+                    );
+                }
+            }
+            Operation::Interpolate(s) => {
+                let (lo, hi) = crate::sphere::beta::BETA1_RANGE;
+                if !(s.beta1.is_finite() && s.beta1 >= lo && s.beta1 <= hi) {
+                    return bad(
+                        "beta1",
+                        format!("{}: beta1 must be a number from {lo:e} to {hi:e}", s.beta1),
+                    );
+                }
+                if !(s.beta2.is_finite() && s.beta2 >= 0.0) {
+                    return bad("beta2", format!("{}: beta2 must be a number >= 0", s.beta2));
+                }
+            }
+            Operation::Evaluate => {}
+        }
+        Ok(())
+    }
+}
+
+/// A GeoJSON input that cannot be processed: a JSON pointer to the offending value
+/// (`/features/3/geometry/coordinates/17`) and what is wrong with it.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{}: {problem}", if pointer.is_empty() { "(document)" } else { pointer.as_str() })]
+pub struct EarthError {
+    /// RFC 6901 pointer into the input document ("" for the whole document or an option).
+    pub pointer: String,
+    /// What is wrong there.
+    pub problem: Problem,
+}
+
+impl EarthError {
+    /// An error at `pointer`.
+    pub fn new(pointer: impl Into<String>, problem: Problem) -> EarthError {
+        EarthError {
+            pointer: pointer.into(),
+            problem,
+        }
+    }
+}
+
+/// What can be wrong with a GeoJSON input or the options for it. [`Problem::slug`] names each
+/// kind in a stable, machine-readable way.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Problem {
+    /// Not the GeoJSON structure expected (missing or unknown `type`, coordinates not arrays).
+    #[error("{0}")]
+    InvalidGeoJson(String),
+    /// A position that is not 2 or 3 numbers, or whose numbers are not in range.
+    #[error("{0}")]
+    InvalidCoordinate(String),
+    /// A Polygon ring whose last position differs from its first, or with under 4 positions.
+    #[error("{0}")]
+    InvalidRing(String),
+    /// Fewer distinct positions than a curve needs.
+    #[error(
+        "{distinct} distinct position(s) after dropping repeats: a curve needs at least {need}"
+    )]
+    TooFewPoints { distinct: usize, need: usize },
+    /// Two consecutive positions are (nearly) antipodal: the great circle between them is
+    /// undefined.
+    #[error("this position and the previous one are (nearly) antipodal ({angle_deg} degrees apart): the great circle between them is undefined; add a position in between")]
+    Antipodal { angle_deg: f64 },
+    /// More control points than distinct positions.
+    #[error("{control_points} control points for a line with {distinct} distinct position(s): use at most as many control points as positions")]
+    TooManyControlPoints {
+        control_points: usize,
+        distinct: usize,
+    },
+    /// Output denser than the limit.
+    #[error("{needed} output points needed, more than the limit of {max} per line: use a larger spacing_m or fewer samples")]
+    TooManySamples { needed: usize, max: usize },
+    /// An option out of range or not allowed.
+    #[error("{option}: {message}")]
+    InvalidOption {
+        option: &'static str,
+        message: String,
+    },
+    /// A spline document (for `evaluate`) that does not describe a valid spline.
+    #[error("{0}")]
+    InvalidSpline(String),
+    /// The math core refused the input for a reason not listed above.
+    #[error("{0}")]
+    Fit(SphereError),
+    /// Beta-spline interpolation could not pass through every position.
+    #[error("{0}")]
+    Interpolation(SphereError),
+}
+
+impl Problem {
+    /// A stable, machine-readable name for the kind of problem (used in problem+json `type`).
+    pub fn slug(&self) -> &'static str {
+        match self {
+            Problem::InvalidGeoJson(_) => "invalid-geojson",
+            Problem::InvalidCoordinate(_) => "invalid-coordinate",
+            Problem::InvalidRing(_) => "invalid-ring",
+            Problem::TooFewPoints { .. } => "too-few-points",
+            Problem::Antipodal { .. } => "antipodal-points",
+            Problem::TooManyControlPoints { .. } => "too-many-control-points",
+            Problem::TooManySamples { .. } => "too-many-samples",
+            Problem::InvalidOption { .. } => "invalid-option",
+            Problem::InvalidSpline(_) => "invalid-spline",
+            Problem::Fit(_) => "unfittable",
+            Problem::Interpolation(_) => "not-interpolable",
+        }
+    }
+}

@@ -1,0 +1,503 @@
+//! Route handlers. Each POST handler checks the content type and the query, reads the body
+//! within the byte limit, takes a fitting slot, and does all parsing and CPU work on the
+//! blocking pool within the request's time budget.
+
+use super::error::ApiError;
+use super::query::{self, fit_options, GeoEndpoint, Params};
+use super::{AppState, ServiceConfig, OPENAPI_YAML};
+use crate::earth::{Document, EarthError, FeatureStats, Job};
+use crate::sphere::beta::{curve_from_json, interpolate, InterpolationDocument};
+use crate::sphere::document::{pointer_for, FitDocument, PointsInput, SamplesDocument};
+use crate::sphere::{InterpolationOptions, SphereError, SphericalCurve};
+use axum::body::{Body, Bytes};
+use axum::extract::rejection::QueryRejection;
+use axum::extract::{Query, State};
+use axum::http::{header, HeaderMap, HeaderValue, StatusCode, Uri};
+use axum::response::{IntoResponse, Response};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+const GEO_JSON: &str = "application/geo+json";
+const JSON: &str = "application/json";
+
+type QueryPairs = Result<Query<Vec<(String, String)>>, QueryRejection>;
+
+fn pairs(q: QueryPairs) -> Result<Vec<(String, String)>, ApiError> {
+    q.map(|Query(p)| p).map_err(|e| {
+        ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "invalid-query",
+            format!("the query string cannot be read: {}", e.body_text()),
+        )
+    })
+}
+
+/// Checks the `Content-Type` (parameters such as `charset` are ignored).
+fn check_content_type(headers: &HeaderMap, accepted: &[&str]) -> Result<(), ApiError> {
+    let expected = accepted.join(" or ");
+    let Some(v) = headers.get(header::CONTENT_TYPE) else {
+        return Err(ApiError::unsupported_media_type(&expected, None));
+    };
+    let text = v.to_str().unwrap_or("");
+    let essence = text
+        .split(';')
+        .next()
+        .unwrap_or("")
+        .trim()
+        .to_ascii_lowercase();
+    if accepted.contains(&essence.as_str()) {
+        Ok(())
+    } else {
+        Err(ApiError::unsupported_media_type(&expected, Some(text)))
+    }
+}
+
+/// Reads the whole body, at most `limit` bytes.
+async fn read_body(body: Body, limit: usize) -> Result<Bytes, ApiError> {
+    axum::body::to_bytes(body, limit).await.map_err(|e| {
+        let inner = e.into_inner();
+        let mut source: Option<&(dyn std::error::Error + 'static)> = Some(inner.as_ref());
+        while let Some(s) = source {
+            if s.is::<http_body_util::LengthLimitError>() {
+                return ApiError::body_too_large(limit);
+            }
+            source = s.source();
+        }
+        ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "unreadable-body",
+            format!("the request body could not be read: {inner}"),
+        )
+    })
+}
+
+fn parse_json(bytes: &[u8]) -> Result<Value, ApiError> {
+    serde_json::from_slice(bytes)
+        .map_err(|e| ApiError::malformed_json(format!("the body is not valid JSON: {e}")))
+}
+
+/// Sets the cancel flag when the request is dropped (time budget, client gone).
+struct CancelOnDrop(Arc<AtomicBool>);
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+}
+
+/// Runs `work` on the blocking pool holding a fitting slot, within the time budget.
+async fn run_cpu<T: Send + 'static>(
+    state: &AppState,
+    route: &'static str,
+    start: Instant,
+    work: impl FnOnce(&AtomicBool) -> Result<(T, usize, usize), ApiError> + Send + 'static,
+) -> Result<T, ApiError> {
+    let budget = state.config.request_timeout;
+    let deadline = start + budget;
+    let slot = state.enter(deadline).await?;
+    let cancel = Arc::new(AtomicBool::new(false));
+    let _guard = CancelOnDrop(cancel.clone());
+    let metrics = state.metrics.clone();
+    let handle = tokio::task::spawn_blocking(move || {
+        let _slot = slot;
+        let t0 = Instant::now();
+        let r = work(&cancel);
+        if let Ok((_, points, curves)) = &r {
+            metrics.record_fit(route, t0.elapsed().as_secs_f64(), *points, *curves);
+        }
+        r
+    });
+    match tokio::time::timeout_at(deadline.into(), handle).await {
+        Err(_) => Err(ApiError::timeout(budget.as_secs_f64())),
+        Ok(Err(join)) => {
+            tracing::error!(error = %join, route, "CPU work failed");
+            Err(ApiError::internal())
+        }
+        Ok(Ok(r)) => r.map(|(t, _, _)| t),
+    }
+}
+
+fn respond(content_type: &'static str, body: Vec<u8>) -> Response {
+    let mut res = (StatusCode::OK, body).into_response();
+    res.headers_mut()
+        .insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));
+    res
+}
+
+pub(super) async fn fit(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    q: QueryPairs,
+    body: Body,
+) -> Result<Response, ApiError> {
+    geo(state, GeoEndpoint::Fit, headers, q, body).await
+}
+
+pub(super) async fn interpolate_geo(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    q: QueryPairs,
+    body: Body,
+) -> Result<Response, ApiError> {
+    geo(state, GeoEndpoint::Interpolate, headers, q, body).await
+}
+
+pub(super) async fn evaluate(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    q: QueryPairs,
+    body: Body,
+) -> Result<Response, ApiError> {
+    geo(state, GeoEndpoint::Evaluate, headers, q, body).await
+}
+
+async fn geo(
+    state: AppState,
+    endpoint: GeoEndpoint,
+    headers: HeaderMap,
+    q: QueryPairs,
+    body: Body,
+) -> Result<Response, ApiError> {
+    let start = Instant::now();
+    check_content_type(&headers, &[GEO_JSON, JSON])?;
+    let job = query::geo_job(pairs(q)?, endpoint, &state.config.limits)?;
+    let bytes = read_body(body, state.config.max_body_bytes).await?;
+    let config = state.config.clone();
+    let out = run_cpu(&state, endpoint.route(), start, move |cancel| {
+        geo_work(&bytes, endpoint, &job, &config, cancel)
+    })
+    .await?;
+    Ok(respond(GEO_JSON, out))
+}
+
+/// Parses, fits (features in parallel, first error in input order wins) and serialises.
+fn geo_work(
+    bytes: &[u8],
+    endpoint: GeoEndpoint,
+    job: &Job,
+    config: &ServiceConfig,
+    cancel: &AtomicBool,
+) -> Result<(Vec<u8>, usize, usize), ApiError> {
+    let value = parse_json(bytes)?;
+    let doc = Document::parse(value, endpoint == GeoEndpoint::Evaluate)?;
+    if endpoint != GeoEndpoint::Evaluate {
+        let (total, over) = doc.curve_positions(config.max_points);
+        if let Some(i) = over {
+            return Err(ApiError::too_many_points(
+                total,
+                config.max_points,
+                doc.slots[i].pointer.clone(),
+            ));
+        }
+    }
+    let lowest_failed = AtomicUsize::new(usize::MAX);
+    let results: Vec<Option<Result<crate::earth::ProcessedFeature, EarthError>>> = doc
+        .slots
+        .par_iter()
+        .enumerate()
+        .map(|(i, slot)| {
+            if cancel.load(Ordering::Relaxed) || i > lowest_failed.load(Ordering::Relaxed) {
+                return None;
+            }
+            let r = slot.process(job);
+            if r.is_err() {
+                lowest_failed.fetch_min(i, Ordering::Relaxed);
+            }
+            Some(r)
+        })
+        .collect();
+    let mut features = Vec::with_capacity(results.len());
+    let mut stats = FeatureStats::default();
+    for r in results {
+        match r {
+            Some(Ok(p)) => {
+                stats.merge(&p.stats);
+                features.push(p.feature);
+            }
+            Some(Err(e)) => return Err(e.into()),
+            None => return Err(ApiError::timeout(config.request_timeout.as_secs_f64())),
+        }
+    }
+    if stats.curves == 0 {
+        return Err(ApiError::unprocessable(
+            "nothing-to-fit",
+            match endpoint {
+                GeoEndpoint::Evaluate => "no feature carries properties.fit or properties.interpolation (as written by /v1/fit and /v1/interpolate), and the body is not a spline document with \"crs\": \"lonlat\"",
+                _ => "the input holds no LineString, MultiLineString, Polygon or MultiPolygon with coordinates (other geometries pass through, but there must be something to fit)",
+            },
+        )
+        .at(""));
+    }
+    if stats.output_points > config.max_output_points {
+        return Err(ApiError::unprocessable(
+            "output-too-large",
+            format!(
+                "the output would have {} points, more than the limit of {} per request: use fewer samples or a larger spacing_m",
+                stats.output_points, config.max_output_points
+            ),
+        )
+        .at(""));
+    }
+    let out = doc.into_feature_collection(features, true);
+    let bytes = serde_json::to_vec(&out).map_err(|_| ApiError::internal())?;
+    Ok((bytes, stats.input_points, stats.curves))
+}
+
+/// Where a points document keeps its points: `/points` in an object, the root in an array.
+fn points_base(v: &Value) -> &'static str {
+    if v.is_object() {
+        "/points"
+    } else {
+        ""
+    }
+}
+
+fn sphere_error(e: SphereError, base: &str) -> ApiError {
+    let detail = e.to_string();
+    match e {
+        SphereError::InvalidDegree { .. } => {
+            ApiError::unprocessable("invalid-option", detail).param("degree")
+        }
+        SphereError::InvalidControlPointCount { .. } => {
+            ApiError::unprocessable("invalid-option", detail).param("control_points")
+        }
+        SphereError::InvalidParameters { .. } => {
+            ApiError::unprocessable("invalid-points", detail).at("/parameters")
+        }
+        SphereError::InvalidShapeParameter { field, .. } => {
+            ApiError::unprocessable("invalid-option", detail).param(field)
+        }
+        SphereError::TooFewPoints { .. } | SphereError::AllPointsEqual { .. } => {
+            ApiError::unprocessable("too-few-points", detail).at(base)
+        }
+        SphereError::Antipodal { .. } => {
+            ApiError::unprocessable("antipodal-points", detail).at(pointer_for(base, &e))
+        }
+        SphereError::RepeatedPoint { index, .. } => {
+            ApiError::unprocessable("invalid-points", detail).at(format!("{base}/{index}"))
+        }
+        SphereError::NotInterpolated { joint, .. } | SphereError::DegenerateArc { joint, .. } => {
+            ApiError::unprocessable("not-interpolable", detail).at(format!("{base}/{joint}"))
+        }
+        _ => ApiError::unprocessable("unfittable", detail).at(pointer_for(base, &e)),
+    }
+}
+
+fn check_point_count(n: usize, base: &str, config: &ServiceConfig) -> Result<(), ApiError> {
+    if n > config.max_points {
+        return Err(ApiError::too_many_points(
+            n,
+            config.max_points,
+            base.to_string(),
+        ));
+    }
+    Ok(())
+}
+
+pub(super) async fn sphere_fit(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    q: QueryPairs,
+    body: Body,
+) -> Result<Response, ApiError> {
+    let start = Instant::now();
+    check_content_type(&headers, &[JSON])?;
+    let p = Params::new(pairs(q)?, query::SPHERE_FIT_PARAMS)?;
+    let mut options = fit_options(&p)?;
+    options.target_max_error_rad = p.num("target_max_error_rad")?;
+    let limits = &state.config.limits;
+    let max_degree = crate::sphere::bspline::MAX_DEGREE;
+    if options.degree == 0 || options.degree > max_degree {
+        return Err(ApiError::unprocessable(
+            "invalid-option",
+            format!("degree {}: use 1 to {max_degree}", options.degree),
+        )
+        .param("degree"));
+    }
+    if let Some(n) = options.control_points {
+        if n < options.degree + 1 || n > limits.max_control_points {
+            return Err(ApiError::unprocessable(
+                "invalid-option",
+                format!(
+                    "{n} control points: use degree + 1 = {} to {} (the server's limit)",
+                    options.degree + 1,
+                    limits.max_control_points
+                ),
+            )
+            .param("control_points"));
+        }
+    }
+    if options.iterations > limits.max_iterations {
+        return Err(ApiError::unprocessable(
+            "invalid-option",
+            format!(
+                "{} iterations: use 0 to {} (the server's limit)",
+                options.iterations, limits.max_iterations
+            ),
+        )
+        .param("iterations"));
+    }
+    if let Some(t) = options.target_max_error_rad {
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(ApiError::unprocessable(
+                "invalid-option",
+                format!("{t}: the target must be a number of radians >= 0"),
+            )
+            .param("target_max_error_rad"));
+        }
+    }
+    let bytes = read_body(body, state.config.max_body_bytes).await?;
+    let config = state.config.clone();
+    let out = run_cpu(&state, "/v1/sphere/fit", start, move |_| {
+        let v = parse_json(&bytes)?;
+        let base = points_base(&v);
+        let input = PointsInput::from_json(&v)?;
+        check_point_count(input.points.len(), base, &config)?;
+        let mut options = options;
+        if options.control_points.is_none() {
+            let n = crate::sphere::fit::default_control_points(input.points.len(), options.degree);
+            options.control_points = Some(n.min(config.limits.max_control_points));
+        }
+        let report = crate::sphere::fit::fit(&input.points, input.parameters.as_deref(), &options)
+            .map_err(|e| sphere_error(e, base))?;
+        let body =
+            serde_json::to_vec(&FitDocument::from(&report)).map_err(|_| ApiError::internal())?;
+        Ok((body, input.points.len(), 1))
+    })
+    .await?;
+    Ok(respond(JSON, out))
+}
+
+pub(super) async fn sphere_interpolate(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    q: QueryPairs,
+    body: Body,
+) -> Result<Response, ApiError> {
+    let start = Instant::now();
+    check_content_type(&headers, &[JSON])?;
+    let p = Params::new(pairs(q)?, query::SPHERE_INTERPOLATE_PARAMS)?;
+    let mut options = InterpolationOptions::default();
+    if let Some(b) = p.num("beta1")? {
+        options = options.with_beta1(b);
+    }
+    if let Some(b) = p.num("beta2")? {
+        options = options.with_beta2(b);
+    }
+    let settings = crate::earth::InterpolateSettings {
+        beta1: options.beta1[0],
+        beta2: options.beta2[0],
+    };
+    crate::earth::Job::interpolate(settings)
+        .validate()
+        .map_err(ApiError::from)?;
+    let bytes = read_body(body, state.config.max_body_bytes).await?;
+    let config = state.config.clone();
+    let out = run_cpu(&state, "/v1/sphere/interpolate", start, move |_| {
+        let v = parse_json(&bytes)?;
+        let base = points_base(&v);
+        let input = PointsInput::from_json(&v)?;
+        if v.get("parameters").is_some() {
+            return Err(ApiError::unprocessable(
+                "invalid-points",
+                "interpolation puts point j at parameter j; \"parameters\" are not used here",
+            )
+            .at("/parameters"));
+        }
+        check_point_count(input.points.len(), base, &config)?;
+        let r = interpolate(&input.points, &options).map_err(|e| sphere_error(e, base))?;
+        let body = serde_json::to_vec(&InterpolationDocument::from(&r))
+            .map_err(|_| ApiError::internal())?;
+        Ok((body, input.points.len(), 1))
+    })
+    .await?;
+    Ok(respond(JSON, out))
+}
+
+pub(super) async fn sphere_evaluate(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    q: QueryPairs,
+    body: Body,
+) -> Result<Response, ApiError> {
+    let start = Instant::now();
+    check_content_type(&headers, &[JSON])?;
+    let p = Params::new(pairs(q)?, query::SPHERE_EVALUATE_PARAMS)?;
+    let max = state.config.limits.max_samples;
+    let samples = p.int("samples")?;
+    let at: Option<Vec<f64>> = match p.get::<String>("at", "a list")? {
+        None => None,
+        Some(s) => {
+            let mut ts = Vec::new();
+            for (i, x) in s.split(',').enumerate() {
+                let t: f64 = query::parse_number(x).ok_or_else(|| {
+                    ApiError::invalid_query(
+                        "at",
+                        format!("value {i} ({x:?}) is not a number: give comma-separated numbers"),
+                    )
+                })?;
+                if !t.is_finite() {
+                    return Err(ApiError::unprocessable(
+                        "invalid-option",
+                        format!("value {i} of at is not a finite number"),
+                    )
+                    .param("at"));
+                }
+                ts.push(t);
+            }
+            Some(ts)
+        }
+    };
+    let count = at.as_ref().map_or(samples.unwrap_or(101), Vec::len);
+    if count > max || (at.is_none() && count < 1) {
+        let name = if at.is_some() { "at" } else { "samples" };
+        return Err(ApiError::unprocessable(
+            "invalid-option",
+            format!("{count} parameters: use 1 to {max} (the server's limit)"),
+        )
+        .param(name));
+    }
+    let bytes = read_body(body, state.config.max_body_bytes).await?;
+    let out = run_cpu(&state, "/v1/sphere/evaluate", start, move |_| {
+        let v = parse_json(&bytes)?;
+        let curve = curve_from_json(&v)
+            .map_err(|e| ApiError::unprocessable("invalid-spline", e.message).at(e.pointer))?;
+        let ts = at.unwrap_or_else(|| crate::sphere::curve::even_parameters(curve.domain(), count));
+        let pts = curve.evaluate_many(&ts);
+        let n = ts.len();
+        let body = serde_json::to_vec(&SamplesDocument {
+            parameters: ts,
+            points: pts.to_rows(),
+        })
+        .map_err(|_| ApiError::internal())?;
+        Ok((body, n, 1))
+    })
+    .await?;
+    Ok(respond(JSON, out))
+}
+
+pub(super) async fn health() -> Response {
+    let body = json!({"status": "ok", "version": env!("CARGO_PKG_VERSION")});
+    respond(
+        JSON,
+        serde_json::to_vec(&body).expect("a JSON value serialises"),
+    )
+}
+
+pub(super) async fn openapi() -> Response {
+    respond("application/yaml", OPENAPI_YAML.as_bytes().to_vec())
+}
+
+pub(super) async fn metrics(State(state): State<AppState>) -> Response {
+    respond(
+        "text/plain; version=0.0.4; charset=utf-8",
+        state.metrics.render().into_bytes(),
+    )
+}
+
+pub(super) async fn not_found(uri: Uri) -> ApiError {
+    ApiError::not_found(uri.path())
+}

@@ -1,0 +1,310 @@
+//! The HTTP service (axum): GeoJSON in, fitted curves out, and the S^n documents of the CLI.
+//!
+//! [`router`] builds everything (routes and layers); `main` and the tests both call it. The
+//! contract is `openapi.yaml` (served at `/openapi.yaml`); errors are RFC 9457 problem+json
+//! ([`error`]).
+//!
+//! | route | what |
+//! |---|---|
+//! | `POST /v1/fit` | GeoJSON lines and rings -> fitted spherical B-splines, dense GeoJSON |
+//! | `POST /v1/interpolate` | GeoJSON -> Beta-splines through every vertex, dense GeoJSON |
+//! | `POST /v1/evaluate` | `properties.fit` / `interpolation` (or a lon/lat spline) -> dense GeoJSON |
+//! | `POST /v1/sphere/fit`, `/interpolate`, `/evaluate` | the CLI's S^n JSON documents |
+//! | `GET /health`, `/openapi.yaml`, `/metrics` | liveness, contract, Prometheus text |
+//!
+//! # Runtime
+//! CPU work runs on the blocking pool (the features of one request on rayon, in parallel),
+//! never on the async workers. A request needs one of `fit_concurrency` slots to start; up to
+//! `fit_queue` more wait for one; past that, 503 `overloaded` with `Retry-After`. Every request
+//! has a time budget (503 `timeout`); a request that runs out stops its remaining features.
+
+pub mod error;
+mod handlers;
+pub mod metrics;
+pub mod query;
+
+pub use error::ApiError;
+
+use crate::earth::Limits;
+use axum::error_handling::HandleErrorLayer;
+use axum::extract::{DefaultBodyLimit, MatchedPath, Request, State};
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::middleware::{self, Next};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::Router;
+use metrics::Metrics;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+use tower::ServiceBuilder;
+use tower_http::catch_panic::CatchPanicLayer;
+use tower_http::limit::RequestBodyLimitLayer;
+use tower_http::timeout::TimeoutLayer;
+use tower_http::trace::{DefaultMakeSpan, DefaultOnResponse, TraceLayer};
+
+/// The contract, served at `/openapi.yaml`.
+pub const OPENAPI_YAML: &str = include_str!("../../openapi.yaml");
+
+/// Limits and runtime settings; every field has a `spherefit serve` flag and a `SPHEREFIT_*`
+/// environment variable.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ServiceConfig {
+    /// Largest request body, bytes (413).
+    pub max_body_bytes: usize,
+    /// Most input positions per request (413).
+    pub max_points: usize,
+    /// Most output positions per request (422 `output-too-large`).
+    pub max_output_points: usize,
+    /// Per-curve limits: control points, samples, iterations (422).
+    pub limits: Limits,
+    /// Time budget of one request (503 `timeout`).
+    pub request_timeout: Duration,
+    /// Requests doing CPU work at once.
+    pub fit_concurrency: usize,
+    /// Requests allowed to wait for a slot; past that, 503 `overloaded`.
+    pub fit_queue: usize,
+    /// Requests of any kind in flight at once; past that, 503 `overloaded`.
+    pub max_in_flight: usize,
+}
+
+impl Default for ServiceConfig {
+    fn default() -> Self {
+        ServiceConfig {
+            max_body_bytes: 16 * 1024 * 1024,
+            max_points: 1_000_000,
+            max_output_points: 5_000_000,
+            limits: Limits::default(),
+            request_timeout: Duration::from_secs(30),
+            fit_concurrency: std::thread::available_parallelism().map_or(2, |n| n.get()),
+            fit_queue: 64,
+            max_in_flight: 1024,
+        }
+    }
+}
+
+/// Shared state of the handlers.
+#[derive(Clone, Debug)]
+pub struct AppState {
+    pub config: Arc<ServiceConfig>,
+    pub metrics: Arc<Metrics>,
+    gate: Arc<FitGate>,
+}
+
+impl AppState {
+    /// State for `config`.
+    pub fn new(config: ServiceConfig) -> AppState {
+        let gate = FitGate {
+            slots: Arc::new(Semaphore::new(config.fit_concurrency.max(1))),
+            waiting: AtomicUsize::new(0),
+            queue: config.fit_queue,
+        };
+        AppState {
+            config: Arc::new(config),
+            metrics: Arc::new(Metrics::default()),
+            gate: Arc::new(gate),
+        }
+    }
+}
+
+/// The global bound on CPU work: slots, and a bounded queue in front of them.
+#[derive(Debug)]
+struct FitGate {
+    slots: Arc<Semaphore>,
+    waiting: AtomicUsize,
+    queue: usize,
+}
+
+struct WaitingGuard<'a>(&'a AtomicUsize, &'a Metrics);
+
+impl Drop for WaitingGuard<'_> {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+        self.1.fits_waiting.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+/// A fitting slot; released when the CPU work ends (not when the request gives up).
+pub(crate) struct Slot {
+    _permit: OwnedSemaphorePermit,
+    metrics: Arc<Metrics>,
+}
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        self.metrics
+            .fits_in_progress
+            .fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+impl AppState {
+    /// Takes a fitting slot, waiting in the queue until `deadline` if there is room in it.
+    ///
+    /// # Errors
+    /// 503 `overloaded` when the queue is full, 503 `timeout` at the deadline.
+    pub(crate) async fn enter(&self, deadline: Instant) -> Result<Slot, ApiError> {
+        let gate = &self.gate;
+        let slot = |permit| {
+            self.metrics
+                .fits_in_progress
+                .fetch_add(1, Ordering::Relaxed);
+            Slot {
+                _permit: permit,
+                metrics: self.metrics.clone(),
+            }
+        };
+        if let Ok(p) = gate.slots.clone().try_acquire_owned() {
+            return Ok(slot(p));
+        }
+        if gate.waiting.fetch_add(1, Ordering::SeqCst) >= gate.queue {
+            gate.waiting.fetch_sub(1, Ordering::SeqCst);
+            return Err(ApiError::overloaded());
+        }
+        self.metrics.fits_waiting.fetch_add(1, Ordering::Relaxed);
+        let _guard = WaitingGuard(&gate.waiting, &self.metrics);
+        match tokio::time::timeout_at(deadline.into(), gate.slots.clone().acquire_owned()).await {
+            Ok(Ok(p)) => Ok(slot(p)),
+            Ok(Err(_closed)) => Err(ApiError::internal()),
+            Err(_) => Err(ApiError::timeout(self.config.request_timeout.as_secs_f64())),
+        }
+    }
+}
+
+/// All routes and layers. Layers, outermost first: metrics, problem+json for responses made
+/// outside the handlers, trace, timeout (503), body limit (413), global concurrency limit with
+/// load shedding (503), catch-panic (500).
+pub fn router(state: AppState) -> Router {
+    let config = state.config.clone();
+    // Two stacks because each `Router::layer` call turns response bodies back into `Body`,
+    // which the timeout layer needs; the order is still the one documented above.
+    let outer = ServiceBuilder::new()
+        .layer(
+            TraceLayer::new_for_http()
+                .make_span_with(DefaultMakeSpan::new().level(tracing::Level::INFO))
+                .on_response(DefaultOnResponse::new().level(tracing::Level::INFO)),
+        )
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::SERVICE_UNAVAILABLE,
+            // The handlers enforce the budget themselves (and say so); this is the backstop.
+            config.request_timeout + Duration::from_secs(1),
+        ));
+    let inner = ServiceBuilder::new()
+        .layer(RequestBodyLimitLayer::new(config.max_body_bytes))
+        .layer(HandleErrorLayer::new(|_: tower::BoxError| async {
+            ApiError::overloaded()
+        }))
+        .layer(tower::load_shed::LoadShedLayer::new())
+        .layer(tower::limit::GlobalConcurrencyLimitLayer::new(
+            config.max_in_flight.max(1),
+        ))
+        .layer(CatchPanicLayer::custom(
+            |_: Box<dyn std::any::Any + Send>| {
+                tracing::error!("a handler panicked");
+                ApiError::internal().into_response()
+            },
+        ));
+    Router::new()
+        .route("/v1/fit", post(handlers::fit))
+        .route("/v1/interpolate", post(handlers::interpolate_geo))
+        .route("/v1/evaluate", post(handlers::evaluate))
+        .route("/v1/sphere/fit", post(handlers::sphere_fit))
+        .route("/v1/sphere/interpolate", post(handlers::sphere_interpolate))
+        .route("/v1/sphere/evaluate", post(handlers::sphere_evaluate))
+        .route("/health", get(handlers::health))
+        .route("/openapi.yaml", get(handlers::openapi))
+        .route("/metrics", get(handlers::metrics))
+        .fallback(handlers::not_found)
+        .layer(DefaultBodyLimit::disable())
+        .layer(inner)
+        .layer(outer)
+        .layer(middleware::from_fn(problem_for_bare_errors))
+        .layer(middleware::from_fn_with_state(state.clone(), track_metrics))
+        .with_state(state)
+}
+
+/// Counts every response by route and status.
+async fn track_metrics(State(state): State<AppState>, req: Request, next: Next) -> Response {
+    let start = Instant::now();
+    let route = req
+        .extensions()
+        .get::<MatchedPath>()
+        .map_or_else(|| "unmatched".to_string(), |p| p.as_str().to_string());
+    let method = req.method().to_string();
+    let res = next.run(req).await;
+    let problem = res.extensions().get::<error::ProblemSlug>().map(|s| s.0);
+    state.metrics.record_request(
+        &route,
+        &method,
+        res.status().as_u16(),
+        problem,
+        start.elapsed().as_secs_f64(),
+    );
+    res
+}
+
+/// Turns error responses made by the router or a layer (404, 405, 413, 503, 500) into
+/// problem+json, keeping their headers (`Allow`).
+async fn problem_for_bare_errors(req: Request, next: Next) -> Response {
+    let path = req.uri().path().to_string();
+    let res = next.run(req).await;
+    let status = res.status();
+    let is_problem = res
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(error::PROBLEM_JSON.as_bytes()));
+    if !(status.is_client_error() || status.is_server_error()) || is_problem {
+        return res;
+    }
+    let allow = res.headers().get(header::ALLOW).cloned();
+    let mut out = error::problem_for_status(status, &path).into_response();
+    if let Some(a) = allow {
+        out.headers_mut().insert(header::ALLOW, a);
+    }
+    if status == StatusCode::SERVICE_UNAVAILABLE && !out.headers().contains_key(header::RETRY_AFTER)
+    {
+        out.headers_mut()
+            .insert(header::RETRY_AFTER, HeaderValue::from(error::RETRY_AFTER_S));
+    }
+    out
+}
+
+/// Serves `router(state)` on `listener` until `shutdown` completes, then finishes the requests
+/// in flight.
+///
+/// # Errors
+/// I/O errors of the listener.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    state: AppState,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    axum::serve(listener, router(state))
+        .with_graceful_shutdown(shutdown)
+        .await
+}
+
+/// Completes on SIGINT (Ctrl-C) or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        if tokio::signal::ctrl_c().await.is_err() {
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => tracing::info!("SIGINT received, shutting down"),
+        _ = term => tracing::info!("SIGTERM received, shutting down"),
+    }
+}

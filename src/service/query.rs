@@ -1,0 +1,357 @@
+//! Query parameters -> options. Every endpoint names the parameters it accepts; anything else,
+//! a repeat, an empty value or a value that does not parse is a 400 `invalid-query` naming the
+//! parameter. Values that parse but are out of range are checked later (422 `invalid-option`).
+
+use super::error::ApiError;
+use crate::earth::{InterpolateSettings, Job, Limits, Operation, OutputOptions, Sampling};
+use crate::sphere::{FitOptions, KnotPlacement, Parameterization};
+use std::collections::BTreeMap;
+use std::str::FromStr;
+
+/// Query pairs checked against an allowed list.
+pub struct Params {
+    map: BTreeMap<String, String>,
+}
+
+impl Params {
+    /// Checks names (allowed, no repeats, no empty values).
+    ///
+    /// # Errors
+    /// 400 `invalid-query` naming the parameter.
+    pub fn new(pairs: Vec<(String, String)>, allowed: &[&str]) -> Result<Params, ApiError> {
+        let mut map = BTreeMap::new();
+        for (k, v) in pairs {
+            if !allowed.contains(&k.as_str()) {
+                return Err(ApiError::invalid_query(
+                    &k,
+                    format!(
+                        "unknown query parameter {k:?}: this endpoint accepts {}",
+                        if allowed.is_empty() {
+                            "none".to_string()
+                        } else {
+                            allowed.join(", ")
+                        }
+                    ),
+                ));
+            }
+            if v.is_empty() {
+                return Err(ApiError::invalid_query(
+                    &k,
+                    format!("{k} has no value: give one or leave the parameter out"),
+                ));
+            }
+            if map.contains_key(&k) {
+                return Err(ApiError::invalid_query(
+                    &k,
+                    format!("{k} is given more than once"),
+                ));
+            }
+            map.insert(k, v);
+        }
+        Ok(Params { map })
+    }
+
+    /// The parsed value of `name`, if given.
+    ///
+    /// # Errors
+    /// 400 `invalid-query` when it does not parse as `what`.
+    pub fn get<T: FromStr>(&self, name: &str, what: &str) -> Result<Option<T>, ApiError> {
+        match self.map.get(name) {
+            None => Ok(None),
+            Some(v) => v
+                .parse::<T>()
+                .map(Some)
+                .map_err(|_| ApiError::invalid_query(name, format!("{name}={v:?} is not {what}"))),
+        }
+    }
+
+    /// A non-negative integer in plain decimal digits.
+    ///
+    /// # Errors
+    /// 400 `invalid-query` for anything else (signs, spaces, exponents).
+    pub fn int(&self, name: &str) -> Result<Option<usize>, ApiError> {
+        match self.map.get(name) {
+            None => Ok(None),
+            Some(v) if is_decimal_integer(v) => v
+                .parse()
+                .map(Some)
+                .map_err(|_| ApiError::invalid_query(name, format!("{name}={v:?} is too large"))),
+            Some(v) => Err(ApiError::invalid_query(
+                name,
+                format!("{name}={v:?} is not {INTEGER}"),
+            )),
+        }
+    }
+
+    /// A number written as JSON writes numbers (`-1.5e-3`); no `inf`, `NaN`, `+` or spaces.
+    ///
+    /// # Errors
+    /// 400 `invalid-query` for anything else.
+    pub fn num(&self, name: &str) -> Result<Option<f64>, ApiError> {
+        match self.map.get(name) {
+            None => Ok(None),
+            Some(v) => parse_number(v).map(Some).ok_or_else(|| {
+                ApiError::invalid_query(name, format!("{name}={v:?} is not {NUMBER}"))
+            }),
+        }
+    }
+
+    /// True when `name` was given.
+    pub fn has(&self, name: &str) -> bool {
+        self.map.contains_key(name)
+    }
+}
+
+const INTEGER: &str = "a non-negative integer";
+const NUMBER: &str = "a number";
+
+fn is_decimal_integer(s: &str) -> bool {
+    !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())
+}
+
+/// Parses `-?digits(.digits)?([eE][+-]?digits)?` (also `.5` and `5.`), the grammar the
+/// OpenAPI `number` parameters promise; anything else is `None`.
+pub fn parse_number(s: &str) -> Option<f64> {
+    let b = s.as_bytes();
+    let mut i = 0;
+    if b.first() == Some(&b'-') {
+        i += 1;
+    }
+    let int_start = i;
+    while i < b.len() && b[i].is_ascii_digit() {
+        i += 1;
+    }
+    let mut digits = i - int_start;
+    if i < b.len() && b[i] == b'.' {
+        i += 1;
+        let frac_start = i;
+        while i < b.len() && b[i].is_ascii_digit() {
+            i += 1;
+        }
+        digits += i - frac_start;
+    }
+    if digits == 0 {
+        return None;
+    }
+    if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+        i += 1;
+        if i < b.len() && (b[i] == b'+' || b[i] == b'-') {
+            i += 1;
+        }
+        let exp_start = i;
+        while i < b.len() && b[i].is_ascii_digit() {
+            i += 1;
+        }
+        if i == exp_start {
+            return None;
+        }
+    }
+    if i != b.len() {
+        return None;
+    }
+    s.parse().ok()
+}
+
+/// Parameters of `/v1/fit`.
+pub const FIT_PARAMS: &[&str] = &[
+    "control_points",
+    "degree",
+    "knots",
+    "iterations",
+    "parameterization",
+    "samples",
+    "spacing_m",
+    "precision",
+];
+/// Parameters of `/v1/interpolate`.
+pub const INTERPOLATE_PARAMS: &[&str] = &["beta1", "beta2", "samples", "spacing_m", "precision"];
+/// Parameters of `/v1/evaluate`.
+pub const EVALUATE_PARAMS: &[&str] = &["samples", "spacing_m", "precision"];
+/// Parameters of `/v1/sphere/fit`.
+pub const SPHERE_FIT_PARAMS: &[&str] = &[
+    "control_points",
+    "degree",
+    "knots",
+    "iterations",
+    "parameterization",
+    "target_max_error_rad",
+];
+/// Parameters of `/v1/sphere/evaluate`.
+pub const SPHERE_EVALUATE_PARAMS: &[&str] = &["samples", "at"];
+/// Parameters of `/v1/sphere/interpolate`.
+pub const SPHERE_INTERPOLATE_PARAMS: &[&str] = &["beta1", "beta2"];
+
+fn output_options(p: &Params) -> Result<OutputOptions, ApiError> {
+    let samples = p.int("samples")?;
+    let spacing = p.num("spacing_m")?;
+    let sampling = match (samples, spacing) {
+        (Some(n), Some(s)) => Sampling::SpacingAndSamples {
+            spacing_m: s,
+            samples: n,
+        },
+        (Some(n), None) => Sampling::Samples(n),
+        (None, Some(s)) => Sampling::SpacingM(s),
+        (None, None) => Sampling::Auto,
+    };
+    Ok(OutputOptions {
+        sampling,
+        precision: match p.int("precision")? {
+            Some(n) => u32::try_from(n).unwrap_or(u32::MAX),
+            None => crate::earth::DEFAULT_PRECISION,
+        },
+    })
+}
+
+/// GLS-PIA options from the query (shared by `/v1/fit` and `/v1/sphere/fit`).
+pub fn fit_options(p: &Params) -> Result<FitOptions, ApiError> {
+    let mut o = FitOptions {
+        control_points: p.int("control_points")?,
+        ..FitOptions::default()
+    };
+    if let Some(d) = p.int("degree")? {
+        o.degree = d;
+    }
+    if let Some(k) = p.get::<KnotPlacement>("knots", "geodesic, euclidean or uniform")? {
+        o.knots = k;
+    }
+    if let Some(i) = p.int("iterations")? {
+        o.iterations = i;
+    }
+    if let Some(x) =
+        p.get::<Parameterization>("parameterization", "chord, centripetal or uniform")?
+    {
+        o.parameterization = x;
+    }
+    Ok(o)
+}
+
+/// The Earth job of a geo endpoint, validated against the limits.
+///
+/// # Errors
+/// 400 for unparsable parameters, 422 `invalid-option` for values out of range.
+pub fn geo_job(
+    pairs: Vec<(String, String)>,
+    endpoint: GeoEndpoint,
+    limits: &Limits,
+) -> Result<Job, ApiError> {
+    let (allowed, operation) = match endpoint {
+        GeoEndpoint::Fit => (FIT_PARAMS, None),
+        GeoEndpoint::Interpolate => (INTERPOLATE_PARAMS, None),
+        GeoEndpoint::Evaluate => (EVALUATE_PARAMS, Some(Operation::Evaluate)),
+    };
+    let p = Params::new(pairs, allowed)?;
+    let operation = match (endpoint, operation) {
+        (_, Some(op)) => op,
+        (GeoEndpoint::Fit, None) => Operation::Fit(fit_options(&p)?),
+        _ => {
+            let d = InterpolateSettings::default();
+            Operation::Interpolate(InterpolateSettings {
+                beta1: p.num("beta1")?.unwrap_or(d.beta1),
+                beta2: p.num("beta2")?.unwrap_or(d.beta2),
+            })
+        }
+    };
+    let job = Job {
+        operation,
+        output: output_options(&p)?,
+        limits: limits.clone(),
+    };
+    job.validate().map_err(ApiError::from)?;
+    Ok(job)
+}
+
+/// The three GeoJSON endpoints.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeoEndpoint {
+    Fit,
+    Interpolate,
+    Evaluate,
+}
+
+impl GeoEndpoint {
+    /// The route, for metrics.
+    pub fn route(self) -> &'static str {
+        match self {
+            GeoEndpoint::Fit => "/v1/fit",
+            GeoEndpoint::Interpolate => "/v1/interpolate",
+            GeoEndpoint::Evaluate => "/v1/evaluate",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pairs(q: &[(&str, &str)]) -> Vec<(String, String)> {
+        q.iter()
+            .map(|(a, b)| (a.to_string(), b.to_string()))
+            .collect()
+    }
+
+    #[test]
+    fn unknown_repeated_and_unparsable_parameters_are_400() {
+        let l = Limits::default();
+        let e = geo_job(pairs(&[("foo", "1")]), GeoEndpoint::Fit, &l).unwrap_err();
+        assert_eq!(
+            (e.status.as_u16(), e.parameter.as_deref()),
+            (400, Some("foo"))
+        );
+        let e = geo_job(
+            pairs(&[("degree", "2"), ("degree", "3")]),
+            GeoEndpoint::Fit,
+            &l,
+        )
+        .unwrap_err();
+        assert_eq!(e.status.as_u16(), 400);
+        let e = geo_job(pairs(&[("samples", "ten")]), GeoEndpoint::Fit, &l).unwrap_err();
+        assert_eq!(e.parameter.as_deref(), Some("samples"));
+        let both = geo_job(
+            pairs(&[("samples", "10"), ("spacing_m", "5")]),
+            GeoEndpoint::Evaluate,
+            &l,
+        )
+        .unwrap();
+        assert_eq!(
+            both.output.sampling,
+            Sampling::SpacingAndSamples {
+                spacing_m: 5.0,
+                samples: 10
+            }
+        );
+    }
+
+    #[test]
+    fn out_of_range_values_are_422() {
+        let l = Limits::default();
+        for (k, v) in [
+            ("degree", "9"),
+            ("control_points", "2"),
+            ("samples", "1"),
+            ("precision", "16"),
+            ("iterations", "100000"),
+        ] {
+            let e = geo_job(pairs(&[(k, v)]), GeoEndpoint::Fit, &l).unwrap_err();
+            assert_eq!(e.status.as_u16(), 422, "{k}={v}");
+            assert_eq!(e.parameter.as_deref(), Some(k));
+        }
+        let e = geo_job(pairs(&[("spacing_m", "0")]), GeoEndpoint::Fit, &l).unwrap_err();
+        assert_eq!(e.status.as_u16(), 422);
+        for bad in ["NaN", "inf", "+1", " 1", "1e", "--1", "."] {
+            let e = geo_job(pairs(&[("spacing_m", bad)]), GeoEndpoint::Fit, &l).unwrap_err();
+            assert_eq!(e.status.as_u16(), 400, "{bad}");
+        }
+        assert_eq!(parse_number("-1.5e-3"), Some(-1.5e-3));
+        assert_eq!(parse_number("1e+20"), Some(1e20));
+        assert_eq!(parse_number("5."), Some(5.0));
+        let e = geo_job(pairs(&[("beta1", "0")]), GeoEndpoint::Interpolate, &l).unwrap_err();
+        assert_eq!(e.parameter.as_deref(), Some("beta1"));
+    }
+
+    #[test]
+    fn defaults_are_the_papers() {
+        let job = geo_job(vec![], GeoEndpoint::Fit, &Limits::default()).unwrap();
+        assert_eq!(job.operation, Operation::Fit(FitOptions::default()));
+        assert_eq!(job.output, OutputOptions::default());
+    }
+}
