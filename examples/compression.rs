@@ -281,8 +281,8 @@ fn ablation(sets: &[DataSet]) {
             ToleranceOptions::default().with_uniform_knots(false),
         ),
         (
-            "no stored-knot fits of degree >= 2 (free parameters)",
-            ToleranceOptions::default().with_adaptive_knots(false),
+            "plus stored-knot fits of degree >= 2 (free parameters)",
+            ToleranceOptions::default().with_adaptive_knots(true),
         ),
         (
             "seed factor 1",

@@ -49,11 +49,7 @@ fn main() {
     let opts = FitOptions::default()
         .with_control_points(n_ctrl)
         .with_solver(solver)
-        .with_iterations(if solver == Solver::GaussNewton {
-            30
-        } else {
-            30
-        });
+        .with_iterations(30);
     let report = fit(&pts, None, &opts).unwrap();
     let secs = start.elapsed().as_secs_f64();
     println!(

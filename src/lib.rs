@@ -6,8 +6,11 @@
 //! * [`sphere`]: math on S^n, knowing nothing of GeoJSON, HTTP or metres:
 //!   [`sphere::point`] (unit vectors, SLERP, log/exp maps), [`sphere::bspline`] (de Boor with
 //!   SLERP and contribution coefficients), [`sphere::knots`] (parameters, adaptive knots),
-//!   [`sphere::fit`] (GLS-PIA), [`sphere::metrics`] (geodesic errors),
-//!   [`sphere::document`] (the JSON documents).
+//!   [`mod@sphere::fit`] (GLS-PIA, `Solver::GaussNewton`), banded Cholesky in
+//!   [`sphere::banded`], [`sphere::metrics`] (geodesic errors),
+//!   [`sphere::beta`] and [`sphere::bezier`] (Beta-spline interpolation, Bézier curves),
+//!   [`sphere::tolerance`] and [`sphere::simplify`] (fitting to a tolerance, spherical
+//!   Douglas–Peucker), [`sphere::document`] (the JSON documents).
 //! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out.
 //! * [`service`]: the HTTP service (axum): `/v1/fit`, `/v1/interpolate`, `/v1/evaluate` and the
 //!   S^n documents under `/v1/sphere/`.

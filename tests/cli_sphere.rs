@@ -598,3 +598,52 @@ fn fit_with_the_fast_solver() {
     assert_eq!(gn["metrics"]["converged"], true);
     assert!(gn["metrics"]["iterations"].as_u64().unwrap() < 30);
 }
+
+/// `--tolerance-rad` (issue 7 on S^n): the reported max error, and a recomputation through
+/// `sphere evaluate` at the returned parameters, are within the tolerance when it is met.
+#[test]
+fn fit_to_a_tolerance_reports_what_it_met() {
+    let tol = 1e-3;
+    let out = run_ok(&["sphere", "fit", "--tolerance-rad", "0.001", WAVY], None);
+    let t = &out["tolerance"];
+    assert_eq!(t["tolerance_met"], true, "{t}");
+    let max = out["metrics"]["max_error_rad"].as_f64().unwrap();
+    assert!(max <= tol);
+    let stored = t["stored_numbers"].as_u64().unwrap();
+    assert!(stored < t["input_numbers"].as_u64().unwrap(), "{t}");
+    // Recompute independently: evaluate the curve at the returned parameters.
+    let params: Vec<String> = f64s(&out["parameters"])
+        .iter()
+        .map(|x| format!("{x:e}"))
+        .collect();
+    let at = params.join(",");
+    let curve = run_ok(&["sphere", "evaluate", "--at", &at], Some(&out.to_string()));
+    let input: Value = serde_json::from_str(&std::fs::read_to_string(WAVY).unwrap()).unwrap();
+    let pts = input
+        .get("points")
+        .unwrap_or(&input)
+        .as_array()
+        .unwrap()
+        .clone();
+    let worst = pts
+        .iter()
+        .zip(curve["points"].as_array().unwrap())
+        .map(|(q, c)| {
+            let (q, c) = (f64s(q), f64s(c));
+            let (mut m, mut p) = (0.0, 0.0);
+            for k in 0..q.len() {
+                m += (q[k] - c[k]).powi(2);
+                p += (q[k] + c[k]).powi(2);
+            }
+            2.0 * f64::atan2(m.sqrt(), p.sqrt())
+        })
+        .fold(0.0, f64::max);
+    assert!(worst <= tol * (1.0 + 1e-9), "recomputed {worst:e}");
+    assert!((worst - max).abs() <= 1e-12, "{worst:e} vs {max:e}");
+    // A tolerance that is not positive is an input error.
+    run_invalid(
+        &["sphere", "fit", "--tolerance-rad", "0", WAVY],
+        None,
+        &["tolerance"],
+    );
+}

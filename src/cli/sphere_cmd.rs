@@ -2,7 +2,8 @@
 
 use super::{read_json, write_json, Failure};
 use crate::sphere::beta::{curve_from_json, InterpolationDocument};
-use crate::sphere::document::{FitDocument, PointsInput, SamplesDocument};
+use crate::sphere::document::{FitDocument, PointsInput, SamplesDocument, SplineDocument};
+use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, Solver, StepRule};
 use crate::sphere::{interpolate, BetaSolver, InterpolationOptions, SphereError, SphericalCurve};
 use clap::{Args, Subcommand};
@@ -93,6 +94,11 @@ pub(crate) struct FitArgs {
     /// Stop early once the max error is at or below this, in radians
     #[arg(long)]
     target_max_error_rad: Option<f64>,
+    /// Fit to a tolerance instead, in radians: every point within it of the curve, with as few
+    /// stored numbers as the fitter finds (degree 1 to 3 chosen per input, control points and
+    /// knots found). The output then has a "tolerance" object instead of "history"
+    #[arg(long, conflicts_with_all = ["control_points", "knots", "iterations", "solver", "step", "target_max_error_rad"])]
+    tolerance_rad: Option<f64>,
     /// Input JSON file; `-` or absent reads stdin
     file: Option<PathBuf>,
 }
@@ -128,6 +134,9 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
         .with_solver(a.solver);
     options.control_points = a.control_points;
     options.target_max_error_rad = a.target_max_error_rad;
+    if let Some(tolerance_rad) = a.tolerance_rad {
+        return tolerance_cmd(&input, tolerance_rad, a.degree, a.parameterization);
+    }
     let report = fit(&input.points, input.parameters.as_deref(), &options).map_err(|e| {
         let field = match e {
             crate::sphere::SphereError::InvalidDegree { .. } => "--degree",
@@ -138,6 +147,55 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
         Failure::input(format!("{field}: {e}"))
     })?;
     write_json(&FitDocument::from(&report))
+}
+
+/// `sphere fit --tolerance-rad`: the tolerance fitter of `sphere::tolerance`. `--degree` caps
+/// the degrees tried (1 ..= degree, at most 3).
+fn tolerance_cmd(
+    input: &PointsInput,
+    tolerance_rad: f64,
+    degree: usize,
+    parameterization: Parameterization,
+) -> Result<(), Failure> {
+    let mut options = ToleranceOptions {
+        parameterization,
+        ..ToleranceOptions::default()
+    };
+    options.degrees.retain(|&p| p <= degree.max(1));
+    let r = fit_to_tolerance(
+        &input.points,
+        input.parameters.as_deref(),
+        tolerance_rad,
+        &options,
+    )
+    .map_err(|e| {
+        let field = match e {
+            SphereError::InvalidParameters { .. } => "parameters",
+            SphereError::TooFewPoints { .. }
+            | SphereError::AllPointsEqual { .. }
+            | SphereError::Antipodal { .. } => "points",
+            _ => "--tolerance-rad",
+        };
+        Failure::input(format!("{field}: {e}"))
+    })?;
+    write_json(&serde_json::json!({
+        "spline": SplineDocument::from(&r.spline),
+        "parameters": r.parameters,
+        "metrics": {
+            "max_error_rad": r.metrics.max_error_rad,
+            "mean_error_rad": r.metrics.mean_error_rad,
+            "rms_error_rad": r.metrics.rms_error_rad,
+        },
+        "tolerance": {
+            "tolerance_rad": r.tolerance_rad,
+            "tolerance_met": r.tolerance_met,
+            "degree": r.degree,
+            "knot_rule": r.knot_rule,
+            "stored_numbers": r.stored_numbers,
+            "input_numbers": r.input_numbers,
+            "compression_ratio": r.compression_ratio,
+        },
+    }))
 }
 
 fn interpolate_cmd(a: InterpolateArgs) -> Result<(), Failure> {

@@ -35,7 +35,7 @@
 //! let feature = serde_json::json!({
 //!     "type": "Feature", "id": 7, "properties": {"name": "wave"},
 //!     "geometry": {"type": "LineString", "coordinates":
-//!         (0..50).map(|i| [i as f64 * 0.1, (i as f64 * 0.3).sin()]).collect::<Vec<_>>()}
+//!         (0..50).map(|i| [i as f64 * 0.1, (i as f64 * 0.05).sin()]).collect::<Vec<_>>()}
 //! });
 //! let out = process_feature(&feature, "/features/0", &Job::fit(Default::default())).unwrap();
 //! assert_eq!(out.feature["id"], 7);

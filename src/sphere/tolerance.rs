@@ -379,6 +379,9 @@ fn internal_target(tolerance_rad: f64) -> f64 {
     tolerance_rad * (1.0 - 1e-9) - 1e-15
 }
 
+/// The best state seen while refining: (max error, knots, control points, parameters, errors).
+type Snapshot = (f64, Vec<f64>, PointSet, Vec<f64>, Vec<f64>);
+
 /// A finished curve and its data parameters.
 struct Curve {
     spline: SphericalBSpline,
@@ -994,7 +997,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     /// span's middle when that is too close to a knot) and refits, until the target is met, the
     /// cap is reached or nothing can be inserted.
     fn refine(&mut self, target: f64, cap: usize) {
-        let mut best: Option<(f64, Vec<f64>, PointSet, Vec<f64>, Vec<f64>)> = None;
+        let mut best: Option<Snapshot> = None;
         loop {
             let n = self.n_ctrl();
             let max = self.refit(0, n, REFIT_ITERATIONS, target);
@@ -1115,7 +1118,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         if n <= p + 1 {
             return false;
         }
-        let c = r - (p + 1) / 2;
+        let c = r - p.div_ceil(2);
         let knots_before = self.knots.clone();
         let ctrl_before = self.ctrl.clone();
         self.knots.remove(r);
@@ -1215,4 +1218,108 @@ fn move_along_geodesic<D: Dim>(d: D, pt: &mut [f64], v: &[f64]) {
         pt[x] = c * pt[x] + s * t;
     }
     normalize(d, pt);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wave(n: usize, amplitude: f64, dim: usize) -> PointSet {
+        let rows: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let a = i as f64 / (n - 1) as f64;
+                let lat = amplitude * (9.0 * a).sin();
+                let mut v = vec![lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()];
+                v.resize(dim, 0.0);
+                if dim > 3 {
+                    v[3] = 0.1 * (4.0 * a).cos();
+                }
+                let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                v.iter().map(|x| x / norm).collect()
+            })
+            .collect();
+        PointSet::try_from_rows(&rows).unwrap()
+    }
+
+    #[test]
+    fn stored_numbers_count_control_points_knots_and_the_degree() {
+        let pts = wave(50, 0.01, 3);
+        let knots = uniform_knots(6, 3);
+        let ctrl = greville_control_points(
+            &pts,
+            &parameters(&pts, Parameterization::Chord).unwrap(),
+            &knots,
+            3,
+        )
+        .unwrap();
+        let s = SphericalBSpline::try_new(3, knots, ctrl).unwrap();
+        assert_eq!(stored_numbers(&s, KnotRule::Stored), 2 * 6 + 2 + 1);
+        assert_eq!(stored_numbers(&s, KnotRule::Uniform), 2 * 6 + 1);
+        assert_eq!(polyline_numbers(10, 4), 30);
+    }
+
+    #[test]
+    fn a_great_circle_within_the_tolerance_is_one_arc() {
+        // Points on a great circle with wiggles of 1e-7 rad: at 1e-6 one arc suffices.
+        let rows: Vec<[f64; 3]> = (0..200)
+            .map(|i| {
+                let a = i as f64 * 0.001;
+                let lat = 1e-7 * (i as f64 * 0.7).sin();
+                [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
+            })
+            .collect();
+        let pts = PointSet::try_from_rows(&rows).unwrap();
+        let fit = fit_to_tolerance(&pts, None, 1e-6, &ToleranceOptions::default()).unwrap();
+        assert!(fit.tolerance_met);
+        assert_eq!(fit.degree, 1);
+        assert_eq!(fit.spline.control_points().len(), 2);
+        assert_eq!(fit.stored_numbers, 5);
+        assert_eq!(fit.knot_rule, KnotRule::Uniform);
+    }
+
+    #[test]
+    fn removal_beats_the_douglas_peucker_seed_and_the_errors_are_honest() {
+        let pts = wave(600, 0.02, 3);
+        let tol = 2e-5;
+        let dp = douglas_peucker(&pts, tol).len();
+        let opts = ToleranceOptions::default().with_degrees(&[1]);
+        let fit = fit_to_tolerance(&pts, None, tol, &opts).unwrap();
+        assert!(fit.tolerance_met);
+        assert!(
+            fit.spline.control_points().len() < dp,
+            "{} vs {dp}",
+            fit.spline.control_points().len()
+        );
+        let again = measure(&fit.spline, &pts, &fit.parameters);
+        assert_eq!(again.max_error_rad, fit.metrics.max_error_rad);
+        let no_removal =
+            fit_to_tolerance(&pts, None, tol, &opts.clone().with_reduce(false)).unwrap();
+        assert_eq!(no_removal.spline.control_points().len(), dp);
+    }
+
+    #[test]
+    fn works_on_s3_with_three_numbers_per_control_point() {
+        let pts = wave(300, 0.05, 4);
+        let fit = fit_to_tolerance(&pts, None, 1e-4, &ToleranceOptions::default()).unwrap();
+        assert!(fit.tolerance_met, "{:e}", fit.metrics.max_error_rad);
+        assert_eq!(fit.input_numbers, 3 * 300);
+        let n = fit.spline.control_points().len();
+        let knots = match fit.knot_rule {
+            KnotRule::Stored => n - fit.degree - 1,
+            KnotRule::Uniform => 0,
+        };
+        assert_eq!(fit.stored_numbers, 3 * n + knots + 1);
+        assert!(fit.compression_ratio > 5.0, "{}", fit.compression_ratio);
+    }
+
+    #[test]
+    fn given_parameters_use_stored_knots_and_stay_put() {
+        let pts = wave(300, 0.02, 3);
+        let t: Vec<f64> = (0..300).map(|i| (i as f64).powf(1.1)).collect();
+        let fit = fit_to_tolerance(&pts, Some(&t), 1e-5, &ToleranceOptions::default()).unwrap();
+        assert!(fit.tolerance_met);
+        assert_eq!(fit.knot_rule, KnotRule::Stored);
+        let expected = normalize_parameters(&t, 300).unwrap();
+        assert_eq!(fit.parameters, expected);
+    }
 }
