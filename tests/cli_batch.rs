@@ -152,6 +152,11 @@ fn a_file_in_and_out_gives_what_the_service_gives() {
             "/v1/fit?control_points=20&degree=2&samples=150&precision=5",
         ),
         (
+            "fit",
+            vec!["--tolerance-m", "500", "--solver", "gauss-newton"],
+            "/v1/fit?tolerance_m=500&solver=gauss-newton",
+        ),
+        (
             "interpolate",
             vec!["--beta2", "0.5"],
             "/v1/interpolate?beta2=0.5",

@@ -312,6 +312,268 @@ async fn fitted_spline_evaluates_to_the_same_curve() {
     );
 }
 
+/// The largest distance in metres from a position of `coords` to the curve of `spline`,
+/// found independently: dense de Boor samples (every knot among them, bisected until at most
+/// 100 m apart); around every sample
+/// that could be next to the closest point (within one sample step of the nearest), a
+/// golden-section search on each neighbouring interval. Every candidate is a point of the
+/// curve, so this is an upper bound on the true closest-point distance (which the parametric
+/// error reported bounds from above).
+fn closest_point_max_m(coords: &Value, spline: &Value) -> f64 {
+    let pts = line_positions(coords);
+    let n_ctrl = spline["control_points"].as_array().unwrap().len();
+    let n = (20 * n_ctrl).max(2000);
+    let mut ts: Vec<f64> = (0..=n).map(|i| i as f64 / n as f64).collect();
+    ts.extend(
+        spline["knots"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|k| k.as_f64().unwrap()),
+    );
+    ts.sort_by(f64::total_cmp);
+    ts.dedup();
+    // Bisect until neighbouring samples are at most 100 m apart.
+    let h = 100.0 / R_M;
+    let mut dense_ts = vec![ts[0]];
+    let mut dense = vec![eval_spline(spline, ts[0])];
+    for w in ts.windows(2) {
+        let mut stack = vec![(w[1], eval_spline(spline, w[1]))];
+        while let Some(&(t, p)) = stack.last() {
+            let (t0, p0) = (*dense_ts.last().unwrap(), *dense.last().unwrap());
+            if angle(&p0, &p) > h && t - t0 > 1e-12 {
+                let m = 0.5 * (t0 + t);
+                stack.push((m, eval_spline(spline, m)));
+            } else {
+                dense_ts.push(t);
+                dense.push(p);
+                stack.pop();
+            }
+        }
+    }
+    let ts = dense_ts;
+    let n = ts.len() - 1;
+    let step = dense
+        .windows(2)
+        .map(|w| angle(&w[0], &w[1]))
+        .fold(0.0, f64::max);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let golden = |q: &[f64; 3], mut a: f64, mut b: f64| {
+        for _ in 0..40 {
+            let (x1, x2) = (b - g * (b - a), a + g * (b - a));
+            if angle(q, &eval_spline(spline, x1)) < angle(q, &eval_spline(spline, x2)) {
+                b = x2;
+            } else {
+                a = x1;
+            }
+        }
+        angle(q, &eval_spline(spline, 0.5 * (a + b)))
+    };
+    let mut worst = 0.0f64;
+    for q in &pts {
+        let d: Vec<f64> = dense.iter().map(|c| angle(q, c)).collect();
+        let mut best = d.iter().cloned().fold(f64::INFINITY, f64::min);
+        let limit = best + step;
+        for i in (0..=n).filter(|&i| d[i] <= limit) {
+            if i > 0 {
+                best = best.min(golden(q, ts[i - 1], ts[i]));
+            }
+            if i < n {
+                best = best.min(golden(q, ts[i], ts[i + 1]));
+            }
+        }
+        worst = worst.max(best);
+    }
+    worst * R_M
+}
+
+/// A smooth synthetic track: 1,500 points on a slow double wave over 6 degrees.
+fn smooth_line() -> Value {
+    let coords: Vec<Value> = (0..1500)
+        .map(|i| {
+            let a = i as f64 / 1499.0;
+            let lon = -3.0 + 6.0 * a;
+            let lat = 45.0 + 0.4 * (2.0 * std::f64::consts::PI * a).sin() + 0.1 * (7.0 * a).cos();
+            json!([(lon * 1e7).round() / 1e7, (lat * 1e7).round() / 1e7])
+        })
+        .collect();
+    json!({"type": "Feature", "properties": {"name": "smooth"},
+        "geometry": {"type": "LineString", "coordinates": coords}})
+}
+
+#[tokio::test]
+async fn gauss_newton_fits_the_border_at_least_as_well_as_gls_pia() {
+    let app = app();
+    let fc: Value = serde_json::from_str(BORDER).unwrap();
+    let ten_m = fc["features"][2].clone();
+    assert_eq!(ten_m["properties"]["resolution"], "10m");
+    let pia = ok(&post_geo(&app, "/v1/fit?control_points=120", &ten_m).await);
+    let explicit = ok(&post_geo(&app, "/v1/fit?control_points=120&solver=gls-pia", &ten_m).await);
+    assert_eq!(pia, explicit, "gls-pia is the default");
+    let gn = ok(&post_geo(
+        &app,
+        "/v1/fit?control_points=120&solver=gauss-newton",
+        &ten_m,
+    )
+    .await);
+    let (p, g) = (
+        &pia["features"][0]["properties"]["fit"],
+        &gn["features"][0]["properties"]["fit"],
+    );
+    let (rp, rg) = (
+        p["rms_error_m"].as_f64().unwrap(),
+        g["rms_error_m"].as_f64().unwrap(),
+    );
+    assert!(rg <= rp, "gauss-newton rms {rg} vs gls-pia {rp}");
+    assert_eq!(g["converged"], true, "{g}");
+    // The reported errors are those of the returned spline, whatever the solver.
+    let (max, _) = recompute_errors(&ten_m["geometry"]["coordinates"], &g["spline"]);
+    assert!((max - g["max_error_m"].as_f64().unwrap()).abs() < 0.002);
+    let r = post_json(
+        &app,
+        "/v1/sphere/fit?solver=fast",
+        &json!([[1, 0, 0], [0, 1, 0], [0, 0, 1]]),
+    )
+    .await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST);
+    assert_eq!(r.json()["parameter"], "solver");
+}
+
+#[tokio::test]
+async fn tolerance_fits_are_within_the_tolerance_when_they_say_so() {
+    let app = app();
+    let fc: Value = serde_json::from_str(BORDER).unwrap();
+    let ten_m = fc["features"][2].clone();
+    assert_eq!(ten_m["properties"]["resolution"], "10m");
+    for (name, feature) in [("border 10m", ten_m), ("smooth", smooth_line())] {
+        let coords = &feature["geometry"]["coordinates"];
+        let n_in = coords.as_array().unwrap().len() as u64;
+        for tol in [5.0, 100.0, 500.0] {
+            let out = ok(&post_geo(&app, &format!("/v1/fit?tolerance_m={tol}"), &feature).await);
+            let fit = &out["features"][0]["properties"]["fit"];
+            let what = format!("{name} at {tol} m: {}", {
+                let mut f = fit.clone();
+                f["spline"] = json!("…");
+                f
+            });
+            assert_eq!(fit["tolerance_m"], tol, "{what}");
+            assert_eq!(fit["input_points"], n_in, "{what}");
+            let stored = fit["stored_numbers"].as_u64().unwrap();
+            let spline = &fit["spline"];
+            let degree = spline["degree"].as_u64().unwrap();
+            assert_eq!(fit["degree"], degree, "{what}");
+            let n_ctrl = spline["control_points"].as_array().unwrap().len() as u64;
+            assert_eq!(fit["control_points"], n_ctrl, "{what}");
+            let knots_stored = match fit["knot_rule"].as_str().unwrap() {
+                "uniform" => 0,
+                "stored" => n_ctrl - degree - 1,
+                k => panic!("knot_rule {k}"),
+            };
+            assert_eq!(stored, 2 * n_ctrl + knots_stored + 1, "{what}");
+            let ratio = fit["compression_ratio"].as_f64().unwrap();
+            assert!(
+                (ratio - 2.0 * n_in as f64 / stored as f64).abs() < 1e-3,
+                "{what}"
+            );
+            assert_eq!(fit["converged"], fit["tolerance_met"], "{what}");
+            let reported = fit["max_error_m"].as_f64().unwrap();
+            if fit["tolerance_met"] == true {
+                assert!(reported <= tol, "{what}");
+                // Independent: 1 µm of slack for floating-point differences only.
+                let closest = closest_point_max_m(coords, spline);
+                assert!(closest <= tol + 1e-6, "{what}: closest-point max {closest}");
+            } else {
+                assert!(reported > tol, "{what}");
+            }
+            if tol >= 100.0 {
+                assert_eq!(fit["tolerance_met"], true, "{what}");
+                assert!(stored < 2 * n_in, "{what}");
+            }
+        }
+    }
+}
+
+#[tokio::test]
+async fn tolerance_rings_close_and_sphere_tolerance_is_the_cli_document() {
+    let app = app();
+    // A ring of 400 positions around a wavy circle: fitted, closed, honest.
+    let ring: Vec<Value> = (0..=400)
+        .map(|i| {
+            let a = (i % 400) as f64 / 400.0 * 2.0 * std::f64::consts::PI;
+            let r = 0.5 + 0.05 * (5.0 * a).sin();
+            json!([
+                ((10.0 + r * a.cos()) * 1e7).round() / 1e7,
+                ((45.0 + 0.7 * r * a.sin()) * 1e7).round() / 1e7
+            ])
+        })
+        .collect();
+    let poly = json!({"type": "Polygon", "coordinates": [ring]});
+    let out = ok(&post_geo(&app, "/v1/fit?tolerance_m=100", &poly).await);
+    let f = &out["features"][0];
+    let r = f["geometry"]["coordinates"][0].as_array().unwrap();
+    assert_eq!(r.first(), r.last(), "ring closed");
+    let part = &f["properties"]["fit"]["parts"][0];
+    assert_eq!(part["closed"], true);
+    let fit = &f["properties"]["fit"];
+    assert_eq!(fit["tolerance_met"], part["tolerance_met"]);
+    let cps = part["spline"]["control_points"].as_array().unwrap();
+    assert_eq!(
+        cps.first(),
+        cps.last(),
+        "end control points pinned together"
+    );
+    if part["tolerance_met"] == true {
+        assert!(part["max_error_m"].as_f64().unwrap() <= 100.0);
+        assert!(closest_point_max_m(&poly["coordinates"][0], &part["spline"]) <= 100.0 + 1e-6);
+    }
+    assert!(fit["stored_numbers"].as_u64().unwrap() < 2 * 401);
+
+    // /v1/sphere/fit?tolerance_rad= returns what `sphere fit --tolerance-rad` writes.
+    let rows: Vec<Value> = (0..300)
+        .map(|i| {
+            let a = i as f64 * 0.003;
+            let lat = 0.05 * (8.0 * a).sin();
+            json!([lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()])
+        })
+        .collect();
+    let doc = ok(&post_json(
+        &app,
+        "/v1/sphere/fit?tolerance_rad=1e-5",
+        &json!({"points": rows}),
+    )
+    .await);
+    let t = &doc["tolerance"];
+    assert_eq!(t["tolerance_met"], true, "{t}");
+    assert!(doc["metrics"]["max_error_rad"].as_f64().unwrap() <= 1e-5);
+    assert_eq!(doc["parameters"].as_array().unwrap().len(), 300);
+    assert!(t["stored_numbers"].as_u64().unwrap() < 600);
+    for k in [
+        "tolerance_rad",
+        "degree",
+        "knot_rule",
+        "input_numbers",
+        "compression_ratio",
+    ] {
+        assert!(!t[k].is_null(), "{k}");
+    }
+    let both = post_json(
+        &app,
+        "/v1/sphere/fit?tolerance_rad=1e-5&control_points=5",
+        &json!({"points": rows}),
+    )
+    .await;
+    assert_eq!(both.status, StatusCode::BAD_REQUEST);
+    assert_eq!(both.json()["parameter"], "tolerance_rad");
+    let neg = post_json(
+        &app,
+        "/v1/sphere/fit?tolerance_rad=-1",
+        &json!({"points": rows}),
+    )
+    .await;
+    assert_eq!(neg.status.as_u16(), 422);
+    assert_eq!(neg.json()["parameter"], "tolerance_rad");
+}
+
 #[tokio::test]
 async fn properties_ids_members_and_unfitted_features_round_trip() {
     let app = app();
@@ -700,6 +962,38 @@ fn bad_cases() -> Vec<Bad> {
             400,
             "invalid-query",
             "?tolerance",
+        ),
+        bad(
+            "an unknown solver",
+            "/v1/fit?solver=newton",
+            line(good.clone()),
+            400,
+            "invalid-query",
+            "?solver",
+        ),
+        bad(
+            "tolerance_m with control_points",
+            "/v1/fit?tolerance_m=100&control_points=5",
+            line(good.clone()),
+            400,
+            "invalid-query",
+            "?tolerance_m",
+        ),
+        bad(
+            "tolerance_m zero",
+            "/v1/fit?tolerance_m=0",
+            line(good.clone()),
+            422,
+            "invalid-option",
+            "?tolerance_m",
+        ),
+        bad(
+            "tolerance_m not a number",
+            "/v1/fit?tolerance_m=inf",
+            line(good.clone()),
+            400,
+            "invalid-query",
+            "?tolerance_m",
         ),
         bad(
             "degree out of range",

@@ -20,7 +20,7 @@ mod pipeline;
 
 use super::Failure;
 use crate::earth::{InterpolateSettings, Job, Limits, Operation, OutputOptions, Problem, Sampling};
-use crate::sphere::{FitOptions, KnotPlacement, Parameterization};
+use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
 use clap::Args;
 use input::{Format, Input};
 use pipeline::{Fatal, Progress, Settings, Sink, Totals};
@@ -160,6 +160,21 @@ pub(crate) struct FitOptionArgs {
     /// Data parameters: chord (cumulative geodesic distance), centripetal or uniform
     #[arg(long, value_name = "METHOD", default_value = "chord")]
     parameterization: Parameterization,
+    /// Optimiser: gls-pia (the paper's progressive iterative approximation) or gauss-newton
+    /// (the same loss, solved in a few Gauss-Newton steps)
+    #[arg(long, value_name = "SOLVER", default_value = "gls-pia")]
+    solver: Solver,
+    /// Fit each curve to this tolerance, in metres: every position within it of the curve as
+    /// returned, with as few stored numbers as the fitter finds (not with --control-points;
+    /// --degree caps the degrees tried, at most 3) [default: none, a fit with --control-points]
+    #[arg(
+        long,
+        value_name = "METRES",
+        alias = "tolerance_m",
+        allow_negative_numbers = true,
+        conflicts_with = "control_points"
+    )]
+    tolerance_m: Option<f64>,
     /// Most control points per curve (the service's SPHEREFIT_MAX_CONTROL_POINTS)
     #[arg(long, value_name = "N", default_value_t = Limits::default().max_control_points, help_heading = "Limits")]
     max_control_points: usize,
@@ -237,25 +252,28 @@ pub(crate) struct EvaluateArgs {
 
 /// `spherefit fit`.
 pub(crate) fn fit(a: FitArgs) -> Result<(), Failure> {
-    run(
-        "fit",
-        Operation::Fit(a.fit.options()),
-        a.fit.limits(),
-        &a.output,
-        a.batch,
-    )
+    run("fit", a.fit.operation(), a.fit.limits(), &a.output, a.batch)
 }
 
 impl FitOptionArgs {
-    /// The GLS-PIA options, from the defaults as the service builds them.
-    fn options(&self) -> FitOptions {
-        FitOptions {
+    /// The fit, from the default options as the service builds it: to a tolerance when
+    /// `--tolerance-m` is given.
+    fn operation(&self) -> Operation {
+        let options = FitOptions {
             control_points: self.control_points,
             degree: self.degree,
             knots: self.knots,
             iterations: self.iterations,
             parameterization: self.parameterization,
+            solver: self.solver,
             ..FitOptions::default()
+        };
+        match self.tolerance_m {
+            Some(tolerance_m) => Operation::FitToTolerance {
+                options,
+                tolerance_m,
+            },
+            None => Operation::Fit(options),
         }
     }
 
@@ -678,7 +696,7 @@ mod tests {
         let cmd = Cmd::try_parse_from(std::iter::once("x").chain(args.iter().copied()))
             .map_err(Failure::input)?;
         match cmd {
-            Cmd::Fit(a) => job(Operation::Fit(a.fit.options()), a.fit.limits(), &a.output),
+            Cmd::Fit(a) => job(a.fit.operation(), a.fit.limits(), &a.output),
             Cmd::Interpolate(a) => job(
                 Operation::Interpolate(InterpolateSettings {
                     beta1: a.shape.beta1,
@@ -729,6 +747,8 @@ mod tests {
             "250",
             "--precision",
             "5",
+            "--solver",
+            "gauss-newton",
         ])
         .unwrap();
         let service = service_job(
@@ -741,9 +761,14 @@ mod tests {
                 ("parameterization", "centripetal"),
                 ("spacing_m", "250"),
                 ("precision", "5"),
+                ("solver", "gauss-newton"),
             ],
         );
         assert_eq!(cli, service);
+        assert_eq!(
+            cli_job(&["fit", "--tolerance-m", "25", "--degree", "2"]).unwrap(),
+            service_job(GeoEndpoint::Fit, &[("tolerance_m", "25"), ("degree", "2")])
+        );
         assert_eq!(
             cli_job(&[
                 "interpolate",
@@ -770,6 +795,7 @@ mod tests {
             (&["fit", "--samples", "1"][..], "--samples"),
             (&["fit", "--precision", "16"][..], "--precision"),
             (&["fit", "--spacing-m", "-5"][..], "--spacing-m"),
+            (&["fit", "--tolerance-m", "0"][..], "--tolerance-m"),
             (&["interpolate", "--beta1", "0"][..], "--beta1"),
             (&["interpolate", "--beta2", "-1"][..], "--beta2"),
         ] {
@@ -779,6 +805,7 @@ mod tests {
             assert!(!e.message.contains("server"), "{}", e.message);
         }
         assert!(cli_job(&["fit", "--samples", "10", "--spacing-m", "5"]).is_err());
+        assert!(cli_job(&["fit", "--tolerance-m", "10", "--control-points", "5"]).is_err());
     }
 
     #[test]

@@ -2,7 +2,7 @@
 
 use super::{read_json, write_json, Failure};
 use crate::sphere::beta::{curve_from_json, InterpolationDocument};
-use crate::sphere::document::{FitDocument, PointsInput, SamplesDocument, SplineDocument};
+use crate::sphere::document::{tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, Solver, StepRule};
 use crate::sphere::{interpolate, BetaSolver, InterpolationOptions, SphereError, SphericalCurve};
@@ -178,24 +178,7 @@ fn tolerance_cmd(
         };
         Failure::input(format!("{field}: {e}"))
     })?;
-    write_json(&serde_json::json!({
-        "spline": SplineDocument::from(&r.spline),
-        "parameters": r.parameters,
-        "metrics": {
-            "max_error_rad": r.metrics.max_error_rad,
-            "mean_error_rad": r.metrics.mean_error_rad,
-            "rms_error_rad": r.metrics.rms_error_rad,
-        },
-        "tolerance": {
-            "tolerance_rad": r.tolerance_rad,
-            "tolerance_met": r.tolerance_met,
-            "degree": r.degree,
-            "knot_rule": r.knot_rule,
-            "stored_numbers": r.stored_numbers,
-            "input_numbers": r.input_numbers,
-            "compression_ratio": r.compression_ratio,
-        },
-    }))
+    write_json(&tolerance_document(&r))
 }
 
 fn interpolate_cmd(a: InterpolateArgs) -> Result<(), Failure> {

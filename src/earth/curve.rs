@@ -13,6 +13,7 @@ use crate::sphere::beta::{interpolate, BetaDocument, InterpolationOptions, Spher
 use crate::sphere::fit::default_control_points;
 use crate::sphere::metrics::{measure, pointwise_errors};
 use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
+use crate::sphere::tolerance::{fit_to_tolerance, stored_numbers, ToleranceOptions};
 use crate::sphere::{
     fit, gls_pia_iteration, FitOptions, PointSet, SphereError, SphericalBSpline, SphericalCurve,
 };
@@ -322,9 +323,67 @@ pub fn fit_line(
         (r.spline, r.parameters, r.iterations, r.converged)
     };
     let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
+    let (out, _) = finish_fit(
+        Fitted {
+            line: &line,
+            distinct: &distinct,
+            points: &points,
+            spline,
+            control_ll,
+            params,
+            iterations,
+            converged,
+            knots: serde_json::to_value(options.knots).expect("enum serialises"),
+            parameterization: options.parameterization,
+        },
+        pointer,
+        path,
+        closed,
+        output,
+        limits,
+    )?;
+    Ok(out)
+}
 
+/// A fitted curve (control points already rounded) and what it was fitted to.
+struct Fitted<'a> {
+    line: &'a LinePositions,
+    distinct: &'a DistinctPositions,
+    points: &'a PointSet,
+    spline: SphericalBSpline,
+    control_ll: Vec<[f64; 2]>,
+    params: Vec<f64>,
+    iterations: usize,
+    converged: bool,
+    knots: Value,
+    parameterization: crate::sphere::Parameterization,
+}
+
+/// Measures a fitted curve as returned, samples it and writes its `properties.fit` fields.
+/// Also returns the max error in radians.
+fn finish_fit(
+    f: Fitted<'_>,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    output: &OutputOptions,
+    limits: &Limits,
+) -> Result<(CurveOutput, f64), EarthError> {
+    let Fitted {
+        line,
+        distinct,
+        points,
+        spline,
+        control_ll,
+        params,
+        iterations,
+        converged,
+        knots,
+        parameterization,
+    } = f;
+    let control_points = spline.control_points().len();
     // Errors of the spline as returned, each distinct position counted once per input copy.
-    let errs = pointwise_errors(&spline, &points, &params);
+    let errs = pointwise_errors(&spline, points, &params);
     let (mut max_rad, mut sum_rad, mut sq_rad) = (0.0f64, 0.0, 0.0);
     for (e, &k) in errs.iter().zip(&distinct.multiplicity) {
         max_rad = max_rad.max(*e);
@@ -361,13 +420,10 @@ pub fn fit_line(
     fields.insert("control_points".into(), json!(control_points));
     fields.insert("iterations".into(), json!(iterations));
     fields.insert("converged".into(), json!(converged));
-    fields.insert(
-        "knots".into(),
-        serde_json::to_value(options.knots).expect("enum serialises"),
-    );
+    fields.insert("knots".into(), knots);
     fields.insert(
         "parameterization".into(),
-        serde_json::to_value(options.parameterization).expect("enum serialises"),
+        serde_json::to_value(parameterization).expect("enum serialises"),
     );
     fields.insert("output_points".into(), json!(points_out.len()));
     fields.insert(
@@ -375,23 +431,147 @@ pub fn fit_line(
         json!(round_m(rad_to_m(dense.max_deviation_rad))),
     );
     fields.insert("spline".into(), spline_doc);
-    Ok(CurveOutput {
-        pointer: pointer.to_string(),
-        has_alt: line.alts.is_some(),
-        report: CurveReport {
-            path,
-            closed,
-            fields,
-            input_points: n_in,
-            output_points: points_out.len(),
-            stored_numbers: 2 * control_points + spline.knots().len() + 1,
-            max_error_m: rad_to_m(max_rad),
-            error_sum_m: rad_to_m(sum_rad),
-            error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
+    Ok((
+        CurveOutput {
+            pointer: pointer.to_string(),
+            has_alt: line.alts.is_some(),
+            report: CurveReport {
+                path,
+                closed,
+                fields,
+                input_points: n_in,
+                output_points: points_out.len(),
+                stored_numbers: 2 * control_points + spline.knots().len() + 1,
+                max_error_m: rad_to_m(max_rad),
+                error_sum_m: rad_to_m(sum_rad),
+                error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
+            },
+            points: points_out,
+            alts,
         },
-        points: points_out,
-        alts,
-    })
+        max_rad,
+    ))
+}
+
+/// How far rounding a control point to `precision` decimals of a degree can move it, in
+/// radians (half a unit in the last place of longitude and of latitude).
+pub fn rounding_bound_rad(precision: u32) -> f64 {
+    (0.5 * 10f64.powi(-(precision as i32)) * std::f64::consts::SQRT_2).to_radians()
+}
+
+/// Fits one line (or ring, when `closed`) to a tolerance in metres with
+/// [`fit_to_tolerance`] (lon/lat unit vectors, after repeats are dropped).
+///
+/// The fitter aims at the tolerance minus 1.5 times [`rounding_bound_rad`] so that the curve
+/// still meets it once its control points are rounded to `precision`; the errors are then
+/// measured on the rounded curve, and `tolerance_met` is true only when that max error (and
+/// its value rounded to millimetres) is within the tolerance. When rounding pushes a fit that
+/// met its target over the tolerance, it is refitted once with a target lowered by the excess.
+///
+/// A ring is fitted as an open line through its positions (first = last) and then closed by
+/// pinning the end control points together (to their normalised mean), as [`fit_line`] does;
+/// the errors are those of the closed curve, so pinning can cost the tolerance
+/// (`tolerance_met: false`, never hidden).
+///
+/// `options.degree` caps the degrees tried (1 ..= degree, at most 3); `options.parameterization`
+/// gives the starting parameters, which the fitter then moves to foot points. `iterations` is
+/// reported as 0 and `converged` as `tolerance_met`.
+///
+/// # Errors
+/// As [`fit_line`].
+#[allow(clippy::too_many_arguments)]
+pub fn fit_line_to_tolerance(
+    coords: &Value,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    options: &FitOptions,
+    tolerance_m: f64,
+    output: &OutputOptions,
+    limits: &Limits,
+) -> Result<CurveOutput, EarthError> {
+    let line = parse_positions(coords, pointer)?;
+    if closed {
+        check_ring(&line, pointer)?;
+    }
+    let distinct = DistinctPositions::from_line(&line);
+    distinct.check_curve(pointer)?;
+    let points = distinct.point_set();
+    let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
+    let tol_rad = m_to_rad(tolerance_m);
+    let bound = rounding_bound_rad(output.precision);
+    let mut target = if tol_rad > 3.0 * bound {
+        tol_rad - 1.5 * bound
+    } else {
+        tol_rad
+    };
+    let mut topts = ToleranceOptions {
+        parameterization: options.parameterization,
+        max_control_points: Some(limits.max_control_points.min(distinct.len())),
+        ..ToleranceOptions::default()
+    };
+    topts.degrees.retain(|&p| p <= options.degree.max(1));
+    let mut attempt = 0;
+    loop {
+        let r = fit_to_tolerance(&points, None, target, &topts).map_err(fit_err)?;
+        let spline = if closed {
+            pin_ends(&r.spline).map_err(fit_err)?
+        } else {
+            r.spline.clone()
+        };
+        let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
+        let stored = stored_numbers(&spline, r.knot_rule);
+        let knot_rule = serde_json::to_value(r.knot_rule).expect("enum serialises");
+        let (mut out, max_rad) = finish_fit(
+            Fitted {
+                line: &line,
+                distinct: &distinct,
+                points: &points,
+                spline,
+                control_ll,
+                params: r.parameters,
+                iterations: 0,
+                converged: false,
+                knots: knot_rule.clone(),
+                parameterization: options.parameterization,
+            },
+            pointer,
+            path.clone(),
+            closed,
+            output,
+            limits,
+        )?;
+        let met = max_rad <= tol_rad && round_m(rad_to_m(max_rad)) <= tolerance_m;
+        if !met && r.tolerance_met && attempt == 0 && max_rad > tol_rad {
+            // Rounding (or closing the ring) took a fit that met its target over the
+            // tolerance: aim lower by the excess, once.
+            let lower = target - 2.0 * (max_rad - tol_rad) - bound;
+            if lower > 0.25 * tol_rad {
+                target = lower;
+                attempt += 1;
+                continue;
+            }
+        }
+        let n_in = line.points.len();
+        let f = &mut out.report.fields;
+        f.insert("converged".into(), json!(met));
+        f.insert("tolerance_m".into(), json!(tolerance_m));
+        f.insert("tolerance_met".into(), json!(met));
+        f.insert("degree".into(), json!(r.degree));
+        f.insert("knot_rule".into(), knot_rule);
+        f.insert("stored_numbers".into(), json!(stored));
+        f.insert(
+            "compression_ratio".into(),
+            json!(compression_ratio(n_in, stored)),
+        );
+        out.report.stored_numbers = stored;
+        return Ok(out);
+    }
+}
+
+/// `2 × input positions / stored numbers`, to 3 decimals.
+pub fn compression_ratio(input_points: usize, stored_numbers: usize) -> f64 {
+    round_to(2.0 * input_points as f64 / stored_numbers.max(1) as f64, 3)
 }
 
 /// Dense points (a ring ends exactly where it starts) and altitudes interpolated linearly over

@@ -7,7 +7,10 @@
 //! puts the results back together in order, with the collection's foreign members.
 
 use super::antimeridian::{cut_line, split_polygon, Position, SphereRing};
-use super::curve::{evaluate_curve, fit_line, interpolate_line, json_kind, output_position};
+use super::curve::{
+    compression_ratio, evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line,
+    json_kind, output_position,
+};
 use super::curve::{CurveOutput, CurveReport};
 use super::{EarthError, Job, Operation, Problem};
 use rayon::prelude::*;
@@ -347,7 +350,7 @@ fn process_feature_at(
     }
     check_bbox(map, pointer)?;
     let result = match &job.operation {
-        Operation::Fit(_) | Operation::Interpolate(_) => {
+        Operation::Fit(_) | Operation::FitToTolerance { .. } | Operation::Interpolate(_) => {
             curves_of_geometry(geometry, geometry_pointer, job)?
         }
         Operation::Evaluate => curves_of_fit(map, pointer, job)?,
@@ -362,7 +365,7 @@ fn process_feature_at(
     out.remove("bbox");
     out.insert("geometry".into(), geometry_out);
     let key = match job.operation {
-        Operation::Fit(_) => "fit",
+        Operation::Fit(_) | Operation::FitToTolerance { .. } => "fit",
         Operation::Interpolate(_) => "interpolation",
         Operation::Evaluate => "evaluation",
     };
@@ -661,6 +664,19 @@ fn run_curves(jobs: &[CurveJob<'_>], job: &Job) -> Result<Vec<CurveOutput>, Eart
             &job.output,
             &job.limits,
         ),
+        Operation::FitToTolerance {
+            options,
+            tolerance_m,
+        } => fit_line_to_tolerance(
+            c.value,
+            &c.pointer,
+            c.path.clone(),
+            c.closed,
+            options,
+            *tolerance_m,
+            &job.output,
+            &job.limits,
+        ),
         Operation::Interpolate(s) => interpolate_line(
             c.value,
             &c.pointer,
@@ -787,7 +803,7 @@ fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> Va
     if !matches!(job.operation, Operation::Evaluate) {
         let max = reports.iter().map(|r| r.max_error_m).fold(0.0, f64::max);
         out.insert("max_error_m".into(), json!(round_m(max)));
-        if matches!(job.operation, Operation::Fit(_)) {
+        if job.operation.fit_options().is_some() {
             let s: f64 = reports.iter().map(|r| r.error_sum_m).sum();
             let sq: f64 = reports.iter().map(|r| r.error_sq_sum_m2).sum();
             let n = n_in.max(1) as f64;
@@ -796,7 +812,20 @@ fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> Va
         }
         out.insert("input_points".into(), json!(n_in));
     }
-    if let Operation::Fit(o) = &job.operation {
+    if let Operation::FitToTolerance { tolerance_m, .. } = &job.operation {
+        let met = reports
+            .iter()
+            .all(|r| r.fields.get("tolerance_met") == Some(&Value::Bool(true)));
+        let stored = sum(&|r: &CurveReport| r.stored_numbers);
+        out.insert("tolerance_m".into(), json!(tolerance_m));
+        out.insert("tolerance_met".into(), json!(met));
+        out.insert("stored_numbers".into(), json!(stored));
+        out.insert(
+            "compression_ratio".into(),
+            json!(compression_ratio(n_in, stored)),
+        );
+    }
+    if let Some(o) = job.operation.fit_options() {
         let ctrl: usize = reports
             .iter()
             .filter_map(|r| r.fields.get("control_points").and_then(Value::as_u64))
@@ -812,10 +841,12 @@ fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> Va
             .iter()
             .all(|r| r.fields.get("converged") == Some(&Value::Bool(true)));
         out.insert("converged".into(), json!(converged));
-        out.insert(
-            "knots".into(),
-            serde_json::to_value(o.knots).expect("enum serialises"),
-        );
+        if matches!(job.operation, Operation::Fit(_)) {
+            out.insert(
+                "knots".into(),
+                serde_json::to_value(o.knots).expect("enum serialises"),
+            );
+        }
         out.insert(
             "parameterization".into(),
             serde_json::to_value(o.parameterization).expect("enum serialises"),

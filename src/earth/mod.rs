@@ -108,6 +108,16 @@ impl Default for InterpolateSettings {
 pub enum Operation {
     /// Fit a spherical B-spline (GLS-PIA) to each line and ring.
     Fit(FitOptions),
+    /// Fit each line and ring to a tolerance in metres with
+    /// [`crate::sphere::tolerance::fit_to_tolerance`]: every position within `tolerance_m` of
+    /// the curve as returned (control points rounded), with as few stored numbers as the fitter
+    /// finds. Of `options`, `degree` caps the degrees tried (1 to 3) and `parameterization`
+    /// gives the starting parameters; `control_points`, `knots`, `iterations` and `solver` are
+    /// not used.
+    FitToTolerance {
+        options: FitOptions,
+        tolerance_m: f64,
+    },
     /// Interpolate every vertex with a spherical Beta-spline.
     Interpolate(InterpolateSettings),
     /// Sample the splines stored in `properties.fit` (or a bare lon/lat spline document).
@@ -138,6 +148,16 @@ pub struct Job {
     pub operation: Operation,
     pub output: OutputOptions,
     pub limits: Limits,
+}
+
+impl Operation {
+    /// The fit options of a fit (with or without a tolerance).
+    pub fn fit_options(&self) -> Option<&FitOptions> {
+        match self {
+            Operation::Fit(o) | Operation::FitToTolerance { options: o, .. } => Some(o),
+            _ => None,
+        }
+    }
 }
 
 impl Job {
@@ -273,6 +293,31 @@ impl Job {
                     return bad(
                         "knots",
                         "explicit knot vectors are not supported for GeoJSON".into(),
+                    );
+                }
+            }
+            Operation::FitToTolerance {
+                options: o,
+                tolerance_m,
+            } => {
+                let max_degree = crate::sphere::bspline::MAX_DEGREE;
+                if o.degree == 0 || o.degree > max_degree {
+                    return bad(
+                        "degree",
+                        format!("degree {}: use 1 to {max_degree}", o.degree),
+                    );
+                }
+                if !(tolerance_m.is_finite() && *tolerance_m > 0.0) {
+                    return bad(
+                        "tolerance_m",
+                        format!("{tolerance_m}: the tolerance must be a positive number of metres"),
+                    );
+                }
+                if o.control_points.is_some() {
+                    return bad(
+                        "tolerance_m",
+                        "a tolerance fit chooses its own control points: leave control_points out"
+                            .into(),
                     );
                 }
             }

@@ -7,7 +7,10 @@ use super::query::{self, fit_options, GeoEndpoint, Params};
 use super::{AppState, ServiceConfig, OPENAPI_YAML};
 use crate::earth::{Document, EarthError, FeatureStats, Job};
 use crate::sphere::beta::{curve_from_json, interpolate, InterpolationDocument};
-use crate::sphere::document::{pointer_for, FitDocument, PointsInput, SamplesDocument};
+use crate::sphere::document::{
+    pointer_for, tolerance_document, FitDocument, PointsInput, SamplesDocument,
+};
+use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::{InterpolationOptions, SphereError, SphericalCurve};
 use axum::body::{Body, Bytes};
 use axum::extract::rejection::QueryRejection;
@@ -308,6 +311,7 @@ pub(super) async fn sphere_fit(
     let p = Params::new(pairs(q)?, query::SPHERE_FIT_PARAMS)?;
     let mut options = fit_options(&p)?;
     options.target_max_error_rad = p.num("target_max_error_rad")?;
+    let tolerance_rad = query::tolerance(&p, "tolerance_rad")?;
     let limits = &state.config.limits;
     let max_degree = crate::sphere::bspline::MAX_DEGREE;
     if options.degree == 0 || options.degree > max_degree {
@@ -356,6 +360,25 @@ pub(super) async fn sphere_fit(
         let base = points_base(&v);
         let input = PointsInput::from_json(&v)?;
         check_point_count(input.points.len(), base, &config)?;
+        if let Some(tolerance_rad) = tolerance_rad {
+            // As `sphere fit --tolerance-rad`: degree caps the degrees tried.
+            let mut t = ToleranceOptions {
+                parameterization: options.parameterization,
+                max_control_points: Some(config.limits.max_control_points),
+                ..ToleranceOptions::default()
+            };
+            t.degrees.retain(|&d| d <= options.degree.max(1));
+            let r = fit_to_tolerance(
+                &input.points,
+                input.parameters.as_deref(),
+                tolerance_rad,
+                &t,
+            )
+            .map_err(|e| sphere_error(e, base))?;
+            let body =
+                serde_json::to_vec(&tolerance_document(&r)).map_err(|_| ApiError::internal())?;
+            return Ok((body, input.points.len(), 1));
+        }
         let mut options = options;
         if options.control_points.is_none() {
             let n = crate::sphere::fit::default_control_points(input.points.len(), options.degree);

@@ -4,7 +4,7 @@
 
 use super::error::ApiError;
 use crate::earth::{InterpolateSettings, Job, Limits, Operation, OutputOptions, Sampling};
-use crate::sphere::{FitOptions, KnotPlacement, Parameterization};
+use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
 use std::collections::BTreeMap;
 use std::str::FromStr;
 
@@ -159,6 +159,8 @@ pub const FIT_PARAMS: &[&str] = &[
     "knots",
     "iterations",
     "parameterization",
+    "solver",
+    "tolerance_m",
     "samples",
     "spacing_m",
     "precision",
@@ -174,7 +176,9 @@ pub const SPHERE_FIT_PARAMS: &[&str] = &[
     "knots",
     "iterations",
     "parameterization",
+    "solver",
     "target_max_error_rad",
+    "tolerance_rad",
 ];
 /// Parameters of `/v1/sphere/evaluate`.
 pub const SPHERE_EVALUATE_PARAMS: &[&str] = &["samples", "at"];
@@ -222,7 +226,40 @@ pub fn fit_options(p: &Params) -> Result<FitOptions, ApiError> {
     {
         o.parameterization = x;
     }
+    if let Some(s) = p.get::<Solver>("solver", "gls-pia or gauss-newton")? {
+        o.solver = s;
+    }
     Ok(o)
+}
+
+/// A tolerance (`tolerance_m` or `tolerance_rad`), if given: a 400 naming it when
+/// `control_points` is given too, a 422 when it is not a positive finite number.
+///
+/// # Errors
+/// As above, and 400 when it does not parse.
+pub fn tolerance(p: &Params, name: &'static str) -> Result<Option<f64>, ApiError> {
+    let Some(t) = p.num(name)? else {
+        return Ok(None);
+    };
+    if p.has("control_points") {
+        return Err(ApiError::invalid_query(
+            name,
+            format!("{name} and control_points exclude each other: a tolerance fit chooses its own control points"),
+        ));
+    }
+    if !(t.is_finite() && t > 0.0) {
+        let unit = if name == "tolerance_m" {
+            "metres"
+        } else {
+            "radians"
+        };
+        return Err(ApiError::unprocessable(
+            "invalid-option",
+            format!("{t}: the tolerance must be a positive number of {unit}"),
+        )
+        .param(name));
+    }
+    Ok(Some(t))
 }
 
 /// The Earth job of a geo endpoint, validated against the limits.
@@ -242,7 +279,13 @@ pub fn geo_job(
     let p = Params::new(pairs, allowed)?;
     let operation = match (endpoint, operation) {
         (_, Some(op)) => op,
-        (GeoEndpoint::Fit, None) => Operation::Fit(fit_options(&p)?),
+        (GeoEndpoint::Fit, None) => match tolerance(&p, "tolerance_m")? {
+            Some(tolerance_m) => Operation::FitToTolerance {
+                options: fit_options(&p)?,
+                tolerance_m,
+            },
+            None => Operation::Fit(fit_options(&p)?),
+        },
         _ => {
             let d = InterpolateSettings::default();
             Operation::Interpolate(InterpolateSettings {

@@ -247,6 +247,31 @@ pub fn spline_from_json(v: &Value) -> Result<SphericalBSpline, InputError> {
     })
 }
 
+/// The document of a tolerance fit (`sphere fit --tolerance-rad`, `POST /v1/sphere/fit?tolerance_rad=`):
+/// `{"spline", "parameters", "metrics": {max, mean, rms error in radians}, "tolerance":
+/// {"tolerance_rad", "tolerance_met", "degree", "knot_rule", "stored_numbers", "input_numbers",
+/// "compression_ratio"}}`.
+pub fn tolerance_document(r: &super::tolerance::ToleranceFit) -> serde_json::Value {
+    serde_json::json!({
+        "spline": SplineDocument::from(&r.spline),
+        "parameters": r.parameters,
+        "metrics": {
+            "max_error_rad": r.metrics.max_error_rad,
+            "mean_error_rad": r.metrics.mean_error_rad,
+            "rms_error_rad": r.metrics.rms_error_rad,
+        },
+        "tolerance": {
+            "tolerance_rad": r.tolerance_rad,
+            "tolerance_met": r.tolerance_met,
+            "degree": r.degree,
+            "knot_rule": r.knot_rule,
+            "stored_numbers": r.stored_numbers,
+            "input_numbers": r.input_numbers,
+            "compression_ratio": r.compression_ratio,
+        },
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -197,51 +197,8 @@ mod tests {
     use crate::sphere::fit::{fit, FitOptions, Solver};
     use crate::sphere::knots::{parameters, Parameterization};
     use crate::sphere::point::PointSet;
-    use crate::sphere::SphericalBSpline;
 
-    /// A known cubic spherical B-spline wandering over a large part of S^2.
-    fn true_spline() -> SphericalBSpline {
-        let ctrl: Vec<Vec<f64>> = (0..12)
-            .map(|i| {
-                let a = i as f64 * 0.35;
-                let lat = 0.6 * (1.3 * a).sin();
-                vec![lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
-            })
-            .collect();
-        let mut knots = vec![0.0; 4];
-        knots.extend([0.1, 0.15, 0.3, 0.45, 0.5, 0.62, 0.8, 0.9]);
-        knots.extend([1.0; 4]);
-        SphericalBSpline::try_new(3, knots, PointSet::try_from_rows(&ctrl).unwrap()).unwrap()
-    }
-
-    #[test]
-    fn recovers_a_spline_from_its_own_samples_in_few_iterations() {
-        let truth = true_spline();
-        let ts: Vec<f64> = (0..400).map(|j| (j as f64 / 399.0).powf(1.3)).collect();
-        let pts = truth.evaluate_many(&ts);
-        let opts = FitOptions::default()
-            .with_knot_vector(truth.knots().to_vec())
-            .with_solver(Solver::GaussNewton)
-            .with_iterations(10);
-        let r = fit(&pts, Some(&ts), &opts).unwrap();
-        eprintln!(
-            "gauss-newton on exact samples: max {:e} rad after {} iterations",
-            r.metrics.max_error_rad, r.iterations
-        );
-        eprintln!(
-            "history {:?}",
-            r.history
-                .iter()
-                .map(|h| h.max_error_rad)
-                .collect::<Vec<_>>()
-        );
-        assert!(
-            r.metrics.max_error_rad < 1e-10,
-            "{:e}",
-            r.metrics.max_error_rad
-        );
-        assert!(r.iterations <= 10);
-    }
+    // Exact samples of a spline fitted with its own knots: tests/paper_reproduction.rs.
 
     #[test]
     fn reaches_the_gls_pia_fixed_point_on_noisy_data() {
