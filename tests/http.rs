@@ -562,7 +562,7 @@ async fn tolerance_rings_close_and_sphere_tolerance_is_the_cli_document() {
         &json!({"points": rows}),
     )
     .await;
-    assert_eq!(both.status, StatusCode::BAD_REQUEST);
+    assert_eq!(both.status, StatusCode::UNPROCESSABLE_ENTITY);
     assert_eq!(both.json()["parameter"], "tolerance_rad");
     let neg = post_json(
         &app,
@@ -975,8 +975,8 @@ fn bad_cases() -> Vec<Bad> {
             "tolerance_m with control_points",
             "/v1/fit?tolerance_m=100&control_points=5",
             line(good.clone()),
-            400,
-            "invalid-query",
+            422,
+            "conflicting-options",
             "?tolerance_m",
         ),
         bad(

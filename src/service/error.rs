@@ -202,6 +202,7 @@ pub fn title_of(slug: &str) -> &'static str {
         "too-many-control-points" => "More control points than points",
         "too-many-samples" => "Too many output points",
         "invalid-option" => "Invalid option",
+        "conflicting-options" => "Conflicting options",
         "invalid-spline" => "Invalid spline document",
         "invalid-points" => "Invalid points document",
         "nothing-to-fit" => "Nothing to fit",

@@ -236,16 +236,22 @@ pub fn fit_options(p: &Params) -> Result<FitOptions, ApiError> {
 /// `control_points` is given too, a 422 when it is not a positive finite number.
 ///
 /// # Errors
-/// As above, and 400 when it does not parse.
+/// As above, and 400 when it does not parse. Given together with `control_points` it is a 422
+/// (`conflicting-options`): each is valid alone and the schema cannot forbid the pair, but a
+/// tolerance fit chooses its own control points.
 pub fn tolerance(p: &Params, name: &'static str) -> Result<Option<f64>, ApiError> {
     let Some(t) = p.num(name)? else {
         return Ok(None);
     };
     if p.has("control_points") {
-        return Err(ApiError::invalid_query(
-            name,
-            format!("{name} and control_points exclude each other: a tolerance fit chooses its own control points"),
-        ));
+        return Err(ApiError::unprocessable(
+            "conflicting-options",
+            format!(
+                "{name} and control_points exclude each other: a tolerance fit chooses its own \
+                 control points"
+            ),
+        )
+        .param(name));
     }
     if !(t.is_finite() && t > 0.0) {
         let unit = if name == "tolerance_m" {
