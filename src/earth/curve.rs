@@ -275,6 +275,22 @@ pub fn auto_tolerance_rad(max_error_rad: f64) -> f64 {
     (AUTO_DEVIATION_FRACTION * max_error_rad).max(m_to_rad(AUTO_DEVIATION_FLOOR_M))
 }
 
+/// The start every curve operation shares: parse the positions, check a ring is closed, drop
+/// repeated consecutive positions and make sure enough distinct ones remain.
+fn prepare_line(
+    coords: &Value,
+    pointer: &str,
+    closed: bool,
+) -> Result<(LinePositions, DistinctPositions), EarthError> {
+    let line = parse_positions(coords, pointer)?;
+    if closed {
+        check_ring(&line, pointer)?;
+    }
+    let distinct = DistinctPositions::from_line(&line);
+    distinct.check_curve(pointer)?;
+    Ok((line, distinct))
+}
+
 /// Fits one line (or ring, when `closed`) given as a GeoJSON coordinates array.
 ///
 /// # Errors
@@ -289,12 +305,7 @@ pub fn fit_line(
     output: &OutputOptions,
     limits: &Limits,
 ) -> Result<CurveOutput, EarthError> {
-    let line = parse_positions(coords, pointer)?;
-    if closed {
-        check_ring(&line, pointer)?;
-    }
-    let distinct = DistinctPositions::from_line(&line);
-    distinct.check_curve(pointer)?;
+    let (line, distinct) = prepare_line(coords, pointer, closed)?;
     let m = distinct.len();
     let degree = options.degree.min(m - 1);
     let control_points = match options.control_points {
@@ -490,12 +501,7 @@ pub fn fit_line_to_tolerance(
     output: &OutputOptions,
     limits: &Limits,
 ) -> Result<CurveOutput, EarthError> {
-    let line = parse_positions(coords, pointer)?;
-    if closed {
-        check_ring(&line, pointer)?;
-    }
-    let distinct = DistinctPositions::from_line(&line);
-    distinct.check_curve(pointer)?;
+    let (line, distinct) = prepare_line(coords, pointer, closed)?;
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
     let tol_rad = m_to_rad(tolerance_m);
@@ -766,12 +772,7 @@ pub fn interpolate_line(
     output: &OutputOptions,
     limits: &Limits,
 ) -> Result<CurveOutput, EarthError> {
-    let line = parse_positions(coords, pointer)?;
-    if closed {
-        check_ring(&line, pointer)?;
-    }
-    let distinct = DistinctPositions::from_line(&line);
-    distinct.check_curve(pointer)?;
+    let (line, distinct) = prepare_line(coords, pointer, closed)?;
     let points = distinct.point_set();
     let opts = InterpolationOptions::default()
         .with_beta1(settings.beta1)
