@@ -6,8 +6,10 @@
 pub mod banded;
 pub mod beta;
 pub mod bezier;
+pub mod bounds;
 pub mod bspline;
 pub mod curve;
+pub mod dense;
 pub mod document;
 pub mod fit;
 mod gauss_newton;
@@ -18,6 +20,7 @@ mod pass;
 pub mod point;
 pub mod simplify;
 pub mod tolerance;
+pub mod two_way;
 
 pub use beta::{
     interpolate, AnyCurve, BetaDocument, BetaInterpolation, BetaSolver, InterpolationOptions,
