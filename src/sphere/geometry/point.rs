@@ -9,7 +9,7 @@
 //! One implementation serves every dimension; `benches/sphere.rs` measures the fixed path against
 //! the dynamic one on S^2.
 
-use super::SphereError;
+use crate::sphere::SphereError;
 
 /// Inputs whose norm differs from 1 by more than this are rejected as "not a unit vector";
 /// inside it they are re-normalised. Wide enough for coordinates rounded to 4 decimals (the
@@ -139,15 +139,15 @@ macro_rules! with_dim {
     ($dim:expr, |$d:ident| $body:expr) => {{
         match $dim {
             3 => {
-                let $d = $crate::sphere::point::Fixed::<3>;
+                let $d = $crate::sphere::geometry::point::Fixed::<3>;
                 $body
             }
             4 => {
-                let $d = $crate::sphere::point::Fixed::<4>;
+                let $d = $crate::sphere::geometry::point::Fixed::<4>;
                 $body
             }
             n => {
-                let $d = $crate::sphere::point::Dynamic(n);
+                let $d = $crate::sphere::geometry::point::Dynamic(n);
                 $body
             }
         }

@@ -1,4 +1,4 @@
-//! Spherical Douglas–Peucker: the baseline that [`fit_to_tolerance`](super::fit_to_tolerance)
+//! Spherical Douglas–Peucker: the baseline that [`fit_to_tolerance`](super::tolerance::fit_to_tolerance)
 //! must beat.
 //!
 //! The error of a point is its *cross-track* distance to the simplified line: the geodesic
@@ -11,7 +11,9 @@
 //! a pathological line that splits one vertex at a time, cannot overflow the call stack. Cost:
 //! O(n log n) on typical lines, O(n²) in the worst case, like the planar algorithm.
 
-use super::point::{diff_sum_sq, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD};
+use crate::sphere::geometry::point::{
+    diff_sum_sq, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
+};
 
 /// Arcs shorter than this are treated as a point: the plane they span is undefined to rounding
 /// (the direction of `b − (a·b) a` has relative error ~1e-16 / θ, which is 1e-4 here; below it
@@ -218,14 +220,14 @@ mod tests {
         }
         // Beyond b and before a: the distance to the end point, not to the great circle.
         let q = on_equator(0.7, 0.01);
-        let expected = angle_of(super::super::point::Fixed::<3>, &q, &b);
+        let expected = angle_of(crate::sphere::geometry::point::Fixed::<3>, &q, &b);
         assert_relative_eq!(distance_to_arc(&q, &a, &b), expected, max_relative = 1e-14);
         assert!(expected > 0.2);
         let q = on_equator(-0.1, 0.0);
         assert_relative_eq!(distance_to_arc(&q, &a, &b), 0.1, max_relative = 1e-14);
         // A degenerate arc is its point.
         let q = on_equator(0.3, 0.4);
-        let expected = angle_of(super::super::point::Fixed::<3>, &q, &a);
+        let expected = angle_of(crate::sphere::geometry::point::Fixed::<3>, &q, &a);
         assert_relative_eq!(distance_to_arc(&q, &a, &a), expected, max_relative = 1e-14);
     }
 

@@ -3,10 +3,10 @@
 //! with unit-vector control points; and the other S^n JSON documents shared by the CLI and the
 //! HTTP service (points in, fit results out), parsed with errors that carry a JSON pointer.
 
-use super::bspline::SphericalBSpline;
-use super::fit::{FitReport, IterationError};
-use super::point::PointSet;
-use super::SphereError;
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::{FitReport, IterationError};
+use crate::sphere::geometry::point::PointSet;
+use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -251,7 +251,9 @@ pub fn spline_from_json(v: &Value) -> Result<SphericalBSpline, InputError> {
 /// `{"spline", "parameters", "metrics": {max, mean, rms error in radians}, "tolerance":
 /// {"tolerance_rad", "tolerance_met", "degree", "knot_rule", "stored_numbers", "input_numbers",
 /// "compression_ratio"}}`.
-pub fn tolerance_document(r: &super::tolerance::ToleranceFit) -> serde_json::Value {
+pub fn tolerance_document(
+    r: &crate::sphere::compress::tolerance::ToleranceFit,
+) -> serde_json::Value {
     serde_json::json!({
         "spline": SplineDocument::from(&r.spline),
         "parameters": r.parameters,

@@ -10,9 +10,9 @@
 //! The printed numbers (run with `--nocapture`) are quoted in the README; asserted bounds are
 //! the measured values with a margin.
 
-mod common;
-
-use common::{angle, dot, lonlat_to_unit, max_norm_deviation, read_fixture_json, EARTH_RADIUS_M};
+use crate::helpers::{
+    angle, dot, lonlat_to_unit, max_norm_deviation, read_fixture_json, EARTH_RADIUS_M,
+};
 use spherefit::sphere::point::PointSet;
 use spherefit::sphere::{fit, FitOptions, FitReport, KnotPlacement, SphericalCurve};
 

@@ -2,7 +2,10 @@
 //! Implemented by the B-spline and the Beta-spline, so sampling, GeoJSON output and the
 //! `evaluate` commands serve both.
 
-use super::point::PointSet;
+pub mod bezier;
+pub mod bspline;
+
+use crate::sphere::geometry::point::PointSet;
 
 /// A parametric curve on S^n.
 pub trait SphericalCurve: Send + Sync {

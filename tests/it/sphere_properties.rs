@@ -8,9 +8,9 @@
 //! Random unit vectors live on S^2 .. S^7 (3 to 8 coordinates). Fixed-dimension checks cover the
 //! compiled fast paths (S^2, S^3) and the dynamic path (S^14, S^127).
 
-mod common;
-
-use common::{angle, clamped_uniform_knots, dot, norm, random_walk, spline, unit, SplitMix64};
+use crate::helpers::{
+    self, angle, clamped_uniform_knots, dot, norm, random_walk, spline, unit, SplitMix64,
+};
 use proptest::prelude::*;
 use spherefit::sphere::knots::greville_control_points;
 use spherefit::sphere::metrics::measure;
@@ -318,15 +318,15 @@ proptest! {
         let mut rng = SplitMix64(seed);
         let rows = random_walk(&mut rng, dim, n, step_rad);
         let points = PointSet::try_from_rows(&rows).unwrap();
-        prop_assert!(common::max_norm_deviation(&points) < TOL);
+        prop_assert!(helpers::max_norm_deviation(&points) < TOL);
         let options = FitOptions::default()
             .with_control_points(n / 3)
             .with_knots(knots)
             .with_iterations(10);
         let r = fit(&points, None, &options).unwrap();
-        prop_assert!(common::max_norm_deviation(r.spline.control_points()) < TOL);
+        prop_assert!(helpers::max_norm_deviation(r.spline.control_points()) < TOL);
         let (_, dense) = r.spline.sample(200);
-        prop_assert!(common::max_norm_deviation(&dense) < TOL);
+        prop_assert!(helpers::max_norm_deviation(&dense) < TOL);
         prop_assert_eq!(r.history.len(), r.iterations + 1);
         prop_assert!(r.metrics.max_error_rad.is_finite());
         let m = r.metrics;
@@ -384,7 +384,7 @@ fn small_spread_errors(dim: usize, spread: f64) -> (f64, f64) {
         let t = j as f64 / 200.0;
         let euclid = de_boor(p, &knots, &tangent, t, lerp);
         let spherical = log_map(&base, &s.evaluate(t)).unwrap();
-        curve_err = curve_err.max(common::distance(&spherical, &euclid));
+        curve_err = curve_err.max(helpers::distance(&spherical, &euclid));
         let c = s.contributions(t);
         let n_basis = basis(p, &knots, n, t);
         for (i, nb) in n_basis.iter().enumerate() {
@@ -454,7 +454,7 @@ fn dimensions_3_4_15_and_128_evaluate_and_fit() {
                 "dim {dim}, t {t}"
             );
         }
-        assert!(common::max_norm_deviation(&many) < TOL);
+        assert!(helpers::max_norm_deviation(&many) < TOL);
 
         // GLS-PIA converges linearly here (about 100x per 100 iterations): measured, the max
         // error drops below 1e-8 rad after about 300 iterations in every dimension.
@@ -471,7 +471,7 @@ fn dimensions_3_4_15_and_128_evaluate_and_fit() {
         );
         assert!(r.converged, "dim {dim}: the 1e-10 rad target is met");
         assert!(r.metrics.max_error_rad < 1e-8, "dim {dim}");
-        assert!(common::max_norm_deviation(r.spline.control_points()) < TOL);
+        assert!(helpers::max_norm_deviation(r.spline.control_points()) < TOL);
         for (got, want) in r.spline.control_points().iter().zip(&control) {
             assert!(
                 angle(got, want) < 1e-7,

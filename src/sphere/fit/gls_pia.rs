@@ -6,15 +6,15 @@
 //! out to the control points by their contribution coefficients, `Δ_i = μ_i Σ_j D_i(t_j) δ_j`,
 //! and moves every control point at once: `P_i ← (P_i + Δ_i) / |P_i + Δ_i|`.
 
-use super::bspline::{SphericalBSpline, MAX_DEGREE};
 use super::knots::{
     greville_control_points, normalize_parameters, parameters, place_knots, KnotPlacement,
     Parameterization,
 };
 use super::metrics::ErrorMetrics;
 use super::pass::{run_pass, PassMode};
-use super::point::{normalize, Dynamic, PointSet};
-use super::SphereError;
+use crate::sphere::curve::bspline::{SphericalBSpline, MAX_DEGREE};
+use crate::sphere::geometry::point::{normalize, Dynamic, PointSet};
+use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};
 
 /// The paper's iteration count (§6).

@@ -14,11 +14,11 @@
 //! normal equations in tangent coordinates, quadratic convergence to the geodesic
 //! least-squares optimum for the given knots.
 
-use super::bspline::SphericalBSpline;
-use super::fit::{FitOptions, FitReport, IterationError};
+use super::gls_pia::{FitOptions, FitReport, IterationError};
 use super::metrics::ErrorMetrics;
 use super::pass::{run_pass, PassMode, PassResult};
-use super::point::{dot, normalize, sinc, Dynamic, PointSet};
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::geometry::point::{dot, normalize, sinc, Dynamic, PointSet};
 
 /// Damping attempts per iteration before the solver declares it cannot improve further.
 const MAX_DAMPING_TRIES: usize = 10;
@@ -44,7 +44,7 @@ const EXACT_PHASE_MIN_ARC_RAD: f64 = 0.02;
 fn largest_control_arc(spline: &SphericalBSpline) -> f64 {
     let c = spline.control_points();
     (1..c.len())
-        .map(|i| super::point::angle_between(c.get(i - 1), c.get(i)))
+        .map(|i| crate::sphere::geometry::point::angle_between(c.get(i - 1), c.get(i)))
         .fold(0.0, f64::max)
 }
 
@@ -194,11 +194,11 @@ fn move_along_geodesics(control: &mut PointSet, step: &[f64], mode: PassMode, ba
 
 #[cfg(test)]
 mod tests {
+    use crate::sphere::fit::knots::{parameters, Parameterization};
     use crate::sphere::fit::{fit, FitOptions, Solver};
-    use crate::sphere::knots::{parameters, Parameterization};
-    use crate::sphere::point::PointSet;
+    use crate::sphere::geometry::point::PointSet;
 
-    // Exact samples of a spline fitted with its own knots: tests/paper_reproduction.rs.
+    // Exact samples of a spline fitted with its own knots: tests/it/paper_reproduction.rs.
 
     #[test]
     fn reaches_the_gls_pia_fixed_point_on_noisy_data() {

@@ -3,12 +3,10 @@
 //! reads, a bad record in the middle of a stream, `--stats`, `--help`, order under parallel
 //! fitting, and a closed output pipe.
 
-mod common;
-
-use common::fixture_path;
+use crate::helpers::{fixture_path, run_spherefit};
 use serde_json::{json, Value};
 use spherefit::service::{router, AppState, ServiceConfig};
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
@@ -25,26 +23,7 @@ fn spherefit() -> Command {
 
 /// Runs the binary with `args`, feeding `stdin` if given.
 fn run(args: &[&str], stdin: Option<&[u8]>) -> Output {
-    let mut child = spherefit()
-        .args(args)
-        .stdin(if stdin.is_some() {
-            Stdio::piped()
-        } else {
-            Stdio::null()
-        })
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("the spherefit binary runs");
-    if let Some(bytes) = stdin {
-        let mut pipe = child.stdin.take().unwrap();
-        let bytes = bytes.to_vec();
-        // Written from another thread: the child may fill stdout before it has read all input.
-        std::thread::spawn(move || {
-            let _ = pipe.write_all(&bytes);
-        });
-    }
-    child.wait_with_output().unwrap()
+    run_spherefit(args, stdin)
 }
 
 fn stderr(o: &Output) -> String {

@@ -58,12 +58,12 @@
 //!
 //! Hot loops are generic over [`Dim`], so S^2 runs on `Fixed<3>`.
 
-use super::bezier::{de_casteljau, log_into, SphericalBezier};
-use super::bspline::SphericalBSpline;
-use super::curve::SphericalCurve;
-use super::document::{number_list, number_rows, pointer_for, spline_from_json, InputError};
-use super::point::{angle, normalize, Arc, Dim, Dynamic, PointSet};
-use super::SphereError;
+use crate::document::{number_list, number_rows, pointer_for, spline_from_json, InputError};
+use crate::sphere::curve::bezier::{de_casteljau, log_into, SphericalBezier};
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::curve::SphericalCurve;
+use crate::sphere::geometry::point::{angle, normalize, Arc, Dim, Dynamic, PointSet};
+use crate::sphere::SphereError;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -1477,7 +1477,7 @@ mod tests {
         let aux = example1();
         let s = SphericalBetaSpline::try_from_auxiliary(&aux, &[1.0], &[0.0]).unwrap();
         assert_eq!(s.segment_count(), 3);
-        let slerp = crate::sphere::point::slerp;
+        let slerp = crate::sphere::geometry::point::slerp;
         let q01 = slerp(aux.get(0), aux.get(1), 1.0 / 3.0).unwrap();
         let q02 = slerp(aux.get(0), aux.get(1), 2.0 / 3.0).unwrap();
         let q11 = slerp(aux.get(1), aux.get(2), 1.0 / 3.0).unwrap();
@@ -1494,7 +1494,7 @@ mod tests {
     }
 
     fn angle_between(a: &[f64], b: &[f64]) -> f64 {
-        crate::sphere::point::angle_between(a, b)
+        crate::sphere::geometry::point::angle_between(a, b)
     }
 
     #[test]

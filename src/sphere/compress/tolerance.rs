@@ -71,16 +71,20 @@
 //! fit costs a few dozen passes' worth of work: milliseconds to seconds for thousands of points
 //! (the bench prints the times), single-threaded.
 
-use super::banded::SymmetricBand;
-use super::bspline::{with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE};
-use super::knots::{greville_control_points, normalize_parameters, parameters, Parameterization};
-use super::metrics::{measure, ErrorMetrics};
-use super::point::{
+use super::simplify::douglas_peucker;
+use crate::sphere::curve::bspline::{
+    with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
+};
+use crate::sphere::fit::knots::{
+    greville_control_points, normalize_parameters, parameters, Parameterization,
+};
+use crate::sphere::fit::metrics::{measure, ErrorMetrics};
+use crate::sphere::geometry::point::{
     angle_from_chords, diff_sum_sq, dot, normalize, sinc, slerp, Dim, PointSet,
     SERIES_ANGLE_MAX_RAD,
 };
-use super::simplify::douglas_peucker;
-use super::SphereError;
+use crate::sphere::linalg::banded::SymmetricBand;
+use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};
 
 /// How the interior knots of a returned curve are known to a reader.
@@ -903,7 +907,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 let (m2, p2) = diff_sum_sq(d, q, &self.c);
                 let (theta, _) = angle_from_chords(m2, p2);
                 let scale = if theta <= SERIES_ANGLE_MAX_RAD {
-                    1.0 / super::point::sinc_series(theta)
+                    1.0 / crate::sphere::geometry::point::sinc_series(theta)
                 } else {
                     let s = 0.5 * m2.sqrt() * p2.sqrt();
                     if s > 0.0 {

@@ -6,9 +6,9 @@
 //! coefficient vector through the de Boor triangle alongside the points gives D_i(t) with
 //! `C(t) = Σ D_i(t) P_i` exactly (to rounding), for any spread of the control points.
 
-use super::curve::SphericalCurve;
-use super::point::{normalize, Arc, Dim, Dynamic, PointSet};
-use super::SphereError;
+use super::SphericalCurve;
+use crate::sphere::geometry::point::{normalize, Arc, Dim, Dynamic, PointSet};
+use crate::sphere::SphereError;
 use rayon::prelude::*;
 
 /// Highest supported degree. Degree 5 already gives C^4 curves; higher degrees only add
@@ -37,7 +37,7 @@ impl<const P: usize> Degree for Deg<P> {
 /// the spline was built).
 macro_rules! with_degree {
     ($p:expr, |$g:ident| $body:expr) => {{
-        use $crate::sphere::bspline::Deg;
+        use $crate::sphere::curve::bspline::Deg;
         match $p {
             1 => {
                 let $g = Deg::<1>;
@@ -536,7 +536,7 @@ mod tests {
         let s =
             SphericalBSpline::try_new(1, vec![0.0, 0.0, 0.5, 0.7, 1.0, 1.0], cp.clone()).unwrap();
         let mid = s.evaluate(0.6);
-        let expected = super::super::point::slerp(cp.get(1), cp.get(2), 0.5).unwrap();
+        let expected = crate::sphere::geometry::point::slerp(cp.get(1), cp.get(2), 0.5).unwrap();
         for k in 0..3 {
             assert_relative_eq!(mid[k], expected[k], epsilon = 1e-15);
         }

@@ -10,8 +10,8 @@
 //! * Initial control points: the data polyline (SLERP between neighbours) at the Greville
 //!   abscissae of the knots (§4.3).
 
-use super::point::{dot, normalize, slerp, Arc, Dim, Dynamic, PointSet};
-use super::SphereError;
+use crate::sphere::geometry::point::{dot, normalize, slerp, Arc, Dim, Dynamic, PointSet};
+use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};
 
 /// How data points get their curve parameters.

@@ -10,7 +10,7 @@ use serde_json::{json, Value};
 use spherefit::service::{router, AppState, ServiceConfig};
 use tower::ServiceExt;
 
-const BORDER: &str = include_str!("../fixtures/us_mexico_border_natural_earth.geojson");
+const BORDER: &str = include_str!("../../fixtures/us_mexico_border_natural_earth.geojson");
 const R_M: f64 = 6_371_008.8;
 
 fn app() -> Router {

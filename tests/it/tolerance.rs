@@ -2,9 +2,7 @@
 //! that reports `tolerance_met` really is within the tolerance, by its own metrics and by an
 //! independent recomputation from the curve rebuilt out of its stored numbers.
 
-mod common;
-
-use common::{read_fixture_json, EARTH_RADIUS_M};
+use crate::helpers::{read_fixture_json, EARTH_RADIUS_M};
 use spherefit::sphere::simplify::{douglas_peucker, max_deviation};
 use spherefit::sphere::tolerance::{polyline_numbers, stored_numbers};
 use spherefit::sphere::{

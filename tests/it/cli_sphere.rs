@@ -2,38 +2,19 @@
 //! the documented output shapes, options reaching the fitter, and invalid input exiting with
 //! status 2 and a message naming the field and index.
 
-mod common;
-
-use common::{angle, clamped_uniform_knots, fixture_path, norm};
+use crate::helpers::{angle, clamped_uniform_knots, fixture_path, norm, run_spherefit};
 use serde_json::{json, Value};
 use spherefit::sphere::document::{spline_from_json, PointsInput};
 use spherefit::sphere::{fit, FitOptions, KnotPlacement, Parameterization};
 use std::collections::BTreeSet;
-use std::io::Write;
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 
 const WAVY: &str = "fixtures/sphere_wavy_points.json";
 const SPLINE: &str = "fixtures/sphere_cubic_spline.json";
 
 /// Runs the binary from the package root with `args`, feeding `stdin` if given.
 fn run(args: &[&str], stdin: Option<&str>) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_spherefit"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .stdin(if stdin.is_some() {
-            Stdio::piped()
-        } else {
-            Stdio::null()
-        })
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("the spherefit binary runs");
-    if let Some(text) = stdin {
-        let mut pipe = child.stdin.take().unwrap();
-        pipe.write_all(text.as_bytes()).unwrap();
-    }
-    child.wait_with_output().unwrap()
+    run_spherefit(args, stdin.map(str::as_bytes))
 }
 
 /// Runs a command that must succeed and returns its stdout as JSON.

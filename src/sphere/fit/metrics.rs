@@ -3,9 +3,9 @@
 //! The error of point j is the angle between q_j and C(t_j) in radians: the *parametric*
 //! error. The distance from q_j to the nearest point of the curve is never larger.
 
-use super::bspline::SphericalBSpline;
 use super::pass::{run_pass, PassMode};
-use super::point::PointSet;
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::geometry::point::PointSet;
 use serde::{Deserialize, Serialize};
 
 /// Summary of geodesic errors, in radians.
@@ -86,6 +86,6 @@ pub fn pointwise_errors(spline: &SphericalBSpline, points: &PointSet, params: &[
     points
         .iter()
         .zip(curve.iter())
-        .map(|(q, c)| super::point::angle_between(q, c))
+        .map(|(q, c)| crate::sphere::geometry::point::angle_between(q, c))
         .collect()
 }

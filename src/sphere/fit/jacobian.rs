@@ -12,7 +12,7 @@
 //! coefficients D_i alone, this includes how the SLERP weights change with the control points,
 //! so Gauss–Newton converges quadratically to the geodesic least-squares optimum.
 
-use super::point::{sinc_series, Arc, PointSet, SERIES_ANGLE_MAX_RAD};
+use crate::sphere::geometry::point::{sinc_series, Arc, PointSet, SERIES_ANGLE_MAX_RAD};
 
 /// Orthonormal bases of the tangent planes of every control point: `dim − 1` vectors of `dim`
 /// coordinates per point, from the Householder reflection that maps P to ±e_0.
@@ -129,7 +129,7 @@ pub(crate) fn eval_with_jacobian(
                 .copy_from_slice(&basis[a * dim..(a + 1) * dim]);
         }
     }
-    let d = super::point::Dynamic(dim);
+    let d = crate::sphere::geometry::point::Dynamic(dim);
     for r in 1..=p {
         for j in (r..=p).rev() {
             let i = first + j;
@@ -177,7 +177,7 @@ pub(crate) fn eval_with_jacobian(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::point::{exp_map, Dynamic};
+    use crate::sphere::geometry::point::{exp_map, Dynamic};
     use crate::sphere::SphericalBSpline;
 
     fn spline(spread: f64) -> SphericalBSpline {

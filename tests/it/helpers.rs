@@ -1,11 +1,10 @@
-//! Helpers shared by the integration tests: fixture access, deterministic pseudo-random numbers,
-//! unit vectors, knot vectors and known splines to sample from.
-//!
-//! Each test binary compiles this module separately and uses only part of it.
-#![allow(dead_code)]
+//! Helpers shared by the integration tests: fixture access, running the binary, deterministic
+//! pseudo-random numbers, unit vectors, knot vectors and known splines to sample from.
 
 use spherefit::sphere::point::{exp_map, PointSet};
 use spherefit::sphere::SphericalBSpline;
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
 
 /// Mean Earth radius (IUGG), metres per radian of geodesic angle.
 pub const EARTH_RADIUS_M: f64 = 6_371_008.8;
@@ -13,6 +12,41 @@ pub const EARTH_RADIUS_M: f64 = 6_371_008.8;
 /// Absolute path of a file under `fixtures/`. Tests read data only from there.
 pub fn fixture_path(name: &str) -> String {
     format!("{}/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Runs the `spherefit` binary from the package root with `args`, feeding `stdin` if given.
+///
+/// Stdin is written from another thread: the child may fill its stdout pipe before it has read
+/// all of its input, and a write from this thread would then wait for ever.
+pub fn run_spherefit(args: &[&str], stdin: Option<&[u8]>) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_spherefit"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .stdin(if stdin.is_some() {
+            Stdio::piped()
+        } else {
+            Stdio::null()
+        })
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the spherefit binary runs");
+    let writer = stdin.map(|bytes| {
+        let mut pipe = child.stdin.take().expect("stdin is piped");
+        let bytes = bytes.to_vec();
+        std::thread::spawn(move || {
+            // A child that exits before reading everything closes the pipe: not an error here,
+            // its exit status and stderr say what happened.
+            let _ = pipe.write_all(&bytes);
+        })
+    });
+    let out = child
+        .wait_with_output()
+        .expect("the spherefit binary finishes");
+    if let Some(w) = writer {
+        w.join().expect("the stdin writer does not panic");
+    }
+    out
 }
 
 /// The JSON value in `fixtures/<name>`.

@@ -2,6 +2,7 @@
 //! speed ratio beta1, the natural-spline limit, the paper's examples, S^2 / S^3 / S^14, explicit
 //! failures, and the `sphere interpolate` / `sphere evaluate` commands.
 
+use crate::helpers::run_spherefit;
 use proptest::prelude::*;
 use spherefit::sphere::beta::{curve_from_json, AnyCurve};
 use spherefit::sphere::point::{angle_between, slerp};
@@ -9,8 +10,6 @@ use spherefit::sphere::{
     interpolate, BetaSolver, InterpolationOptions, PointSet, SphereError, SphericalBetaSpline,
     SphericalBezier, SphericalCurve,
 };
-use std::io::Write;
-use std::process::{Command, Stdio};
 
 fn unit(v: &[f64]) -> Vec<f64> {
     let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -491,20 +490,7 @@ proptest! {
 // ---- CLI ------------------------------------------------------------------------------------
 
 fn run_cli(args: &[&str], stdin: &str) -> (i32, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_spherefit"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(stdin.as_bytes())
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
+    let out = run_spherefit(args, Some(stdin.as_bytes()));
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8(out.stdout).unwrap(),

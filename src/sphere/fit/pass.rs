@@ -5,12 +5,14 @@
 //! each chunk accumulates only into the control points its spans touch, and chunk results are
 //! merged in order, so the result does not depend on the number of threads.
 
-use super::banded::SymmetricBand;
-use super::bspline::{with_degree, Degree, Frame, Scratch, SphericalBSpline};
 use super::jacobian::{eval_with_jacobian, tangent_bases, JacobianScratch};
 use super::metrics::ErrorSums;
-use super::point::SERIES_ANGLE_MAX_RAD;
-use super::point::{angle_from_chords, diff_sum_sq, dot, sinc_series, Dim, PointSet};
+use crate::sphere::curve::bspline::{with_degree, Degree, Frame, Scratch, SphericalBSpline};
+use crate::sphere::geometry::point::SERIES_ANGLE_MAX_RAD;
+use crate::sphere::geometry::point::{
+    angle_from_chords, diff_sum_sq, dot, sinc_series, Dim, PointSet,
+};
+use crate::sphere::linalg::banded::SymmetricBand;
 use rayon::prelude::*;
 
 /// Dimensions up to this keep the error vector on the stack (S^2, S^3, Kendall S^14 ...).

@@ -7,9 +7,7 @@
 //! `--nocapture`) so they can be quoted; the asserted bounds are the measured values with a
 //! margin of about 2.
 
-mod common;
-
-use common::{angle, clamped_uniform_knots, sph, spline};
+use crate::helpers::{angle, clamped_uniform_knots, sph, spline};
 use spherefit::sphere::point::{slerp, PointSet};
 use spherefit::sphere::{fit, FitOptions, FitReport, KnotPlacement, Solver, SphericalBSpline};
 use std::f64::consts::PI;

@@ -5,7 +5,7 @@ use serde_json::{json, Value};
 use spherefit::earth::{process_feature, Document, Job, Problem, Sampling};
 use spherefit::sphere::FitOptions;
 
-const BORDER: &str = include_str!("../fixtures/us_mexico_border_natural_earth.geojson");
+const BORDER: &str = include_str!("../../fixtures/us_mexico_border_natural_earth.geojson");
 
 #[test]
 fn feature_by_feature_equals_the_whole_document() {

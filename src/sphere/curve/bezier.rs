@@ -9,9 +9,9 @@
 //! The kernel (`de_casteljau`) is generic over [`Dim`], so the Beta-spline's S^2 path runs on
 //! `Fixed<3>` while S^14 uses the same code with a runtime length.
 
-use super::curve::SphericalCurve;
-use super::point::{normalize, sinc, Arc, Dim, Dynamic, PointSet};
-use super::SphereError;
+use super::SphericalCurve;
+use crate::sphere::geometry::point::{normalize, sinc, Arc, Dim, Dynamic, PointSet};
+use crate::sphere::SphereError;
 use rayon::prelude::*;
 
 /// Parameters per parallel work item in [`SphericalBezier::evaluate_many`]: enough work to
@@ -218,7 +218,7 @@ pub(crate) fn log_into<D: Dim>(d: D, base: &[f64], p: &[f64], out: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::point::{angle_between, slerp};
+    use crate::sphere::geometry::point::{angle_between, slerp};
     use approx::assert_relative_eq;
 
     fn points(rows: &[[f64; 3]]) -> PointSet {
