@@ -3,6 +3,10 @@
 //! with unit-vector control points; and the other S^n JSON documents shared by the CLI and the
 //! HTTP service (points in, fit results out), parsed with errors that carry a JSON pointer.
 
+pub mod beta;
+
+pub use beta::{beta_from_json, curve_from_json, BetaDocument, InterpolationDocument};
+
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::fit::{FitReport, IterationError};
 use crate::sphere::geometry::point::PointSet;

@@ -20,13 +20,13 @@ pub use geometry::point;
 pub use interpolate::beta;
 pub use linalg::banded;
 
-pub use crate::document::SplineDocument;
-pub use beta::{
-    interpolate, AnyCurve, BetaDocument, BetaInterpolation, BetaSolver, InterpolationOptions,
-    SphericalBetaSpline,
-};
+#[doc(hidden)]
+pub use crate::document::{BetaDocument, SplineDocument};
+pub use beta::{interpolate, BetaInterpolation, BetaSolver, InterpolationOptions};
 pub use bezier::SphericalBezier;
 pub use bspline::SphericalBSpline;
+pub use curve::beta::SphericalBetaSpline;
+pub use curve::AnyCurve;
 pub use curve::SphericalCurve;
 pub use fit::{
     fit, gls_pia, gls_pia_iteration, FitOptions, FitReport, IterationError, Solver, StepRule,

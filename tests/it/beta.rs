@@ -4,8 +4,9 @@
 
 use crate::helpers::run_spherefit;
 use proptest::prelude::*;
-use spherefit::sphere::beta::{curve_from_json, AnyCurve};
+use spherefit::document::curve_from_json;
 use spherefit::sphere::point::{angle_between, slerp};
+use spherefit::sphere::AnyCurve;
 use spherefit::sphere::{
     interpolate, BetaSolver, InterpolationOptions, PointSet, SphereError, SphericalBetaSpline,
     SphericalBezier, SphericalCurve,

@@ -2,10 +2,13 @@
 //! Implemented by the B-spline and the Beta-spline, so sampling, GeoJSON output and the
 //! `evaluate` commands serve both.
 
+pub mod beta;
 pub mod bezier;
 pub mod bspline;
 
 use crate::sphere::geometry::point::PointSet;
+use beta::SphericalBetaSpline;
+use bspline::SphericalBSpline;
 
 /// A parametric curve on S^n.
 pub trait SphericalCurve: Send + Sync {
@@ -45,6 +48,37 @@ pub fn even_parameters((a, b): (f64, f64), count: usize) -> Vec<f64> {
                 }
             })
             .collect(),
+    }
+}
+
+/// Either curve: a B-spline or a Beta-spline, so output code (sampling, GeoJSON, `evaluate`) takes one
+/// type.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AnyCurve {
+    /// A spherical B-spline (spline document, `sphere fit` output).
+    BSpline(SphericalBSpline),
+    /// A spherical Beta-spline (Beta-spline document, `sphere interpolate` output).
+    Beta(SphericalBetaSpline),
+}
+
+impl SphericalCurve for AnyCurve {
+    fn dim(&self) -> usize {
+        match self {
+            AnyCurve::BSpline(s) => s.dim(),
+            AnyCurve::Beta(s) => s.dim(),
+        }
+    }
+    fn domain(&self) -> (f64, f64) {
+        match self {
+            AnyCurve::BSpline(s) => s.domain(),
+            AnyCurve::Beta(s) => s.domain(),
+        }
+    }
+    fn evaluate_many(&self, ts: &[f64]) -> PointSet {
+        match self {
+            AnyCurve::BSpline(s) => s.evaluate_many(ts),
+            AnyCurve::Beta(s) => s.evaluate_many(ts),
+        }
     }
 }
 
