@@ -14,7 +14,10 @@ use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline
 use crate::sphere::fit::default_control_points;
 use crate::sphere::metrics::{measure, pointwise_errors};
 use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
-use crate::sphere::tolerance::{fit_to_tolerance, stored_numbers, ToleranceOptions};
+use crate::sphere::tolerance::{
+    fit_to_tolerance, stored_numbers, ToleranceOptions, MAX_LENGTH_RATIO,
+};
+use crate::sphere::two_way::{polyline_length, two_way_distance, TwoWayOptions};
 use crate::sphere::{
     fit, gls_pia_iteration, FitOptions, PointSet, SphereError, SphericalBSpline, SphericalCurve,
 };
@@ -512,9 +515,17 @@ pub fn fit_line_to_tolerance(
     } else {
         tol_rad
     };
+    // The dense output adds its deviation to the curve's distance from the line: aim below the
+    // tolerance by that much too, so the returned geometry also stays within it.
+    let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
+    if target - dense_margin > 0.5 * tol_rad {
+        target -= dense_margin;
+    }
+    // No control-point cap below the input's own size here: a long line at a small tolerance
+    // may need nearly a control point per position, and the input limits already bound that.
     let mut topts = ToleranceOptions {
         parameterization: options.parameterization,
-        max_control_points: Some(limits.max_control_points.min(distinct.len())),
+        max_control_points: Some(distinct.len()),
         ..ToleranceOptions::default()
     };
     topts.degrees.retain(|&p| p <= options.degree.max(1));
@@ -527,6 +538,22 @@ pub fn fit_line_to_tolerance(
             r.spline.clone()
         };
         let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
+        // The two-way distance of the curve as returned (rounded, and closed for a ring).
+        let tw = two_way_distance(
+            &spline,
+            &points,
+            &r.parameters,
+            &TwoWayOptions::default()
+                .with_precision_rad(REPORT_TWO_WAY_PRECISION * tol_rad)
+                .with_max_evaluations(4_000_000 + 400 * points.len()),
+        )
+        .map_err(fit_err)?;
+        let input_len = polyline_length(&points);
+        let length_ratio = if input_len > 0.0 {
+            tw.curve_length_rad / input_len
+        } else {
+            1.0
+        };
         let stored = stored_numbers(&spline, r.knot_rule);
         let knot_rule = serde_json::to_value(r.knot_rule).expect("enum serialises");
         let (mut out, max_rad) = finish_fit(
@@ -548,11 +575,14 @@ pub fn fit_line_to_tolerance(
             output,
             limits,
         )?;
-        let met = max_rad <= tol_rad && round_m(rad_to_m(max_rad)) <= tolerance_m;
-        if !met && r.tolerance_met && attempt == 0 && max_rad > tol_rad {
+        let worst = max_rad.max(tw.upper_rad);
+        let met = worst <= tol_rad
+            && round_m(rad_to_m(worst)) <= tolerance_m
+            && tw.curve_length_rad <= MAX_LENGTH_RATIO * input_len + tol_rad;
+        if !met && r.tolerance_met && attempt == 0 && worst > tol_rad {
             // Rounding (or closing the ring) took a fit that met its target over the
             // tolerance: aim lower by the excess, once.
-            let lower = target - 2.0 * (max_rad - tol_rad) - bound;
+            let lower = target - 2.0 * (worst - tol_rad) - bound;
             if lower > 0.25 * tol_rad {
                 target = lower;
                 attempt += 1;
@@ -564,6 +594,14 @@ pub fn fit_line_to_tolerance(
         f.insert("converged".into(), json!(met));
         f.insert("tolerance_m".into(), json!(tolerance_m));
         f.insert("tolerance_met".into(), json!(met));
+        f.insert(
+            "two_way_distance_m".into(),
+            json!(round_up_m(rad_to_m(tw.upper_rad))),
+        );
+        f.insert(
+            "curve_length_ratio".into(),
+            json!(round_to(length_ratio, 4)),
+        );
         f.insert("degree".into(), json!(r.degree));
         f.insert("knot_rule".into(), knot_rule);
         f.insert("stored_numbers".into(), json!(stored));
@@ -574,6 +612,14 @@ pub fn fit_line_to_tolerance(
         out.report.stored_numbers = stored;
         return Ok(out);
     }
+}
+
+/// Precision of the reported two-way distance, as a share of the tolerance.
+const REPORT_TWO_WAY_PRECISION: f64 = 0.01;
+
+/// Metres rounded up to millimetres: for bounds, which must not shrink in print.
+fn round_up_m(x: f64) -> f64 {
+    (x * 1000.0).ceil() / 1000.0
 }
 
 /// `2 × input positions / stored numbers`, to 3 decimals.

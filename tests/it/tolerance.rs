@@ -1,6 +1,7 @@
 //! Fitting to a tolerance (issue 7): on every fixture line and at 1, 5, 25, 100 and 500 m, a fit
 //! that reports `tolerance_met` really is within the tolerance, by its own metrics and by an
-//! independent recomputation from the curve rebuilt out of its stored numbers.
+//! independent recomputation from the curve rebuilt out of its stored numbers (the two-way
+//! distance is recomputed independently in `two_way.rs`).
 
 use crate::helpers::{read_fixture_json, EARTH_RADIUS_M};
 use spherefit::sphere::simplify::{douglas_peucker, max_deviation};
@@ -124,11 +125,16 @@ fn check(line: &Line, tol_m: f64, params: Option<&[f64]>) -> ToleranceFit {
     let what = format!("{} at {tol_m} m (degree {})", line.name, fit.degree);
     assert_eq!(fit.parameters.len(), line.points.len(), "{what}");
     assert!(fit.parameters.windows(2).all(|w| w[1] >= w[0]), "{what}");
-    assert_eq!(
-        fit.tolerance_met,
-        fit.metrics.max_error_rad <= tol,
-        "{what}"
-    );
+    // Met means the certified two-way distance (which bounds the vertex error) is within it;
+    // tests/it/two_way.rs recomputes that distance independently.
+    if fit.tolerance_met {
+        assert!(
+            fit.two_way_rad <= tol,
+            "{what}: two-way {:e}",
+            fit.two_way_rad
+        );
+        assert!(fit.curve_length_ratio <= 1.2, "{what}");
+    }
     assert_eq!(
         fit.stored_numbers,
         stored_numbers(&fit.spline, fit.knot_rule)
