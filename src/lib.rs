@@ -34,8 +34,10 @@
 //! assert_eq!(dense.len(), 500);
 //! ```
 
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod document;
 pub mod earth;
+#[cfg(feature = "service")]
 pub mod service;
 pub mod sphere;
