@@ -2,7 +2,7 @@
 //!
 //! [`router`] builds everything (routes and layers); `main` and the tests both call it. The
 //! contract is `openapi.yaml` (served at `/openapi.yaml`); errors are RFC 9457 problem+json
-//! ([`error`]).
+//! (`error.rs`).
 //!
 //! | route | what |
 //! |---|---|
@@ -18,12 +18,12 @@
 //! `fit_queue` more wait for one; past that, 503 `overloaded` with `Retry-After`. Every request
 //! has a time budget (503 `timeout`); a request that runs out stops its remaining features.
 
-pub mod error;
+pub(crate) mod error;
 mod handlers;
-pub mod metrics;
-pub mod query;
+pub(crate) mod metrics;
+pub(crate) mod query;
 
-pub use error::ApiError;
+pub(crate) use error::ApiError;
 
 use crate::earth::Limits;
 use axum::error_handling::HandleErrorLayer;
@@ -87,8 +87,8 @@ impl Default for ServiceConfig {
 /// Shared state of the handlers.
 #[derive(Clone, Debug)]
 pub struct AppState {
-    pub config: Arc<ServiceConfig>,
-    pub metrics: Arc<Metrics>,
+    pub(crate) config: Arc<ServiceConfig>,
+    pub(crate) metrics: Arc<Metrics>,
     gate: Arc<FitGate>,
 }
 

@@ -101,11 +101,17 @@ pub enum KnotRule {
 /// One curve tried while fitting to a tolerance (one per degree and knot strategy).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
+    /// Spline degree.
     pub degree: usize,
+    /// How its knots were placed.
     pub knot_rule: KnotRule,
+    /// Control points of the smallest curve found.
     pub control_points: usize,
+    /// Numbers that curve stores ([`stored_numbers`]).
     pub stored_numbers: usize,
+    /// Its largest distance to a point, radians.
     pub max_error_rad: f64,
+    /// Whether every point is within the tolerance.
     pub tolerance_met: bool,
 }
 

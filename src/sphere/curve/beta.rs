@@ -20,7 +20,7 @@
 //! The curve is G1 at every joint (Theorem 1). With `beta1 = 1, beta2 = 0` the legs are cut in
 //! thirds and the ends have zero second derivative: in the small-data limit it is the natural
 //! C2 cubic interpolating spline with uniform parameters.
-//! Hot loops are generic over [`Dim`], so S^2 runs on `Fixed<3>`.
+//! Hot loops are generic over `Dim`, so S^2 runs on `Fixed<3>`.
 
 use crate::sphere::curve::bezier::{de_casteljau, SphericalBezier};
 use crate::sphere::curve::SphericalCurve;
