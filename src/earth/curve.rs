@@ -14,7 +14,7 @@ use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline
 use crate::sphere::fit::default_control_points;
 use crate::sphere::metrics::{measure, pointwise_errors};
 use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
-use crate::sphere::tolerance::{fit_to_tolerance, stored_numbers, ToleranceOptions};
+use crate::sphere::tolerance::{fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions};
 use crate::sphere::AnyCurve;
 use crate::sphere::{fit, gls_pia_iteration, FitOptions, PointSet, SphereError, SphericalBSpline};
 use serde_json::{json, Map, Value};
@@ -459,7 +459,7 @@ fn finish_fit(
                 fields,
                 input_points: n_in,
                 output_points: points_out.len(),
-                stored_numbers: 2 * control_points + spline.knots().len() + 1,
+                stored_numbers: bspline_stored_numbers(&spline),
                 max_error_m: rad_to_m(max_rad),
                 error_sum_m: rad_to_m(sum_rad),
                 error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
@@ -580,6 +580,17 @@ pub fn fit_line_to_tolerance(
         out.report.stored_numbers = stored;
         return Ok(out);
     }
+}
+
+/// Numbers a B-spline stores ([`stored_numbers`]), its knots counted unless they are the clamped
+/// uniform ones, which need no storing: the same count whichever path made the spline.
+fn bspline_stored_numbers(spline: &SphericalBSpline) -> usize {
+    let rule = if spline.has_clamped_uniform_knots() {
+        KnotRule::Uniform
+    } else {
+        KnotRule::Stored
+    };
+    stored_numbers(spline, rule)
 }
 
 /// `2 × input positions / stored numbers`, to 3 decimals.
@@ -841,7 +852,7 @@ pub fn interpolate_line(
             fields,
             input_points: n_in,
             output_points: points_out.len(),
-            stored_numbers: 2 * (3 * segments + 1) + 2 * (segments + 1),
+            stored_numbers: curve.stored_numbers(),
             max_error_m: rad_to_m(max_rad),
             error_sum_m: rad_to_m(sum_rad),
             error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
@@ -972,11 +983,11 @@ pub fn evaluate_curve(
     let (start, stored) = match &curve {
         AnyCurve::BSpline(s) => {
             let n = s.control_points().len();
-            (sampling_start(n), 2 * n + s.knots().len() + 1)
+            (sampling_start(n), bspline_stored_numbers(s))
         }
         AnyCurve::Beta(s) => {
             let n = s.segment_count();
-            (sampling_start(n), 2 * (3 * n + 1) + 2 * (n + 1))
+            (sampling_start(n), s.stored_numbers())
         }
     };
     let tol = auto_tolerance_rad(m_to_rad(known_error_m.unwrap_or(0.0).max(0.0)));

@@ -186,6 +186,12 @@ impl SphericalBetaSpline {
         &self.beta2
     }
 
+    /// Numbers needed to rebuild the curve: `dim − 1` per Bézier control point (a joint shared
+    /// by two segments counted once) and both shape parameters at every point.
+    pub fn stored_numbers(&self) -> usize {
+        (self.dim() - 1) * self.control.len() + self.beta1.len() + self.beta2.len()
+    }
+
     /// Number of cubic segments (points - 1).
     pub fn segment_count(&self) -> usize {
         (self.control.len() - 1) / 3
