@@ -100,6 +100,12 @@ pub enum SphereError {
     },
     #[error("point {joint}: the Beta-spline needs an arc of (nearly) half a great circle here ({angle_rad} rad), where the curve is undefined; the shape parameters cannot be met near this point (move beta1 towards 1)")]
     DegenerateArc { joint: usize, angle_rad: f64 },
+    #[error("no valid spline was found: every candidate had two neighbouring control points (nearly) antipodal (the points may lie on one great circle); add points in between or use a smaller tolerance")]
+    NoValidFit,
+    #[error("stopped: the time budget of the work ran out or it was cancelled")]
+    Cancelled,
+    #[error("{what}: the result is not finite ({why})")]
+    NonFinite { what: &'static str, why: String },
 }
 
 /// Entry points that exist only so `benches/` can compare implementation choices.

@@ -354,7 +354,7 @@ pub fn fit_to_tolerance(
                 })
                 .then(ca.max_error_rad.total_cmp(&cb.max_error_rad))
         })
-        .expect("at least one degree was tried");
+        .ok_or(SphereError::NoValidFit)?;
     let (curve, metrics) = found.swap_remove(best);
     let stored = stored_numbers(&curve.spline, curve.rule);
     let input_numbers = polyline_numbers(n, points.dim());
@@ -455,7 +455,9 @@ fn fit_degree<D: Dim, G: Degree>(
                 offer(u, true, &mut out);
             }
         }
-        offer(f.into_curve(KnotRule::Stored), met, &mut out);
+        if let Some(c) = f.into_curve(KnotRule::Stored) {
+            offer(c, met, &mut out);
+        }
     }
     if free && options.uniform_knots && p >= 2 {
         // Only counts that store fewer numbers than the best curve so far can win.
@@ -510,7 +512,7 @@ fn uniform_search<D: Dim, G: Degree>(
             _ => lo = mid + 1,
         }
     }
-    best.map(|f| f.into_curve(KnotRule::Uniform))
+    best.and_then(|f| f.into_curve(KnotRule::Uniform))
 }
 
 fn uniform_knots(n_ctrl: usize, p: usize) -> Vec<f64> {
@@ -688,14 +690,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         self.err.iter().fold(0.0, |a, &b| a.max(b))
     }
 
-    fn into_curve(self, rule: KnotRule) -> Curve {
-        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl)
-            .expect("the fitter keeps a valid spline");
-        Curve {
+    /// The fitted spline; `None` when it is not a valid spline (two neighbouring control
+    /// points (nearly) antipodal, as a fit along a great circle can make): that candidate is
+    /// dropped rather than returned.
+    fn into_curve(self, rule: KnotRule) -> Option<Curve> {
+        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl).ok()?;
+        Some(Curve {
             spline,
             params: self.params,
             rule,
-        }
+        })
     }
 
     fn last_span(&self) -> usize {
@@ -1198,7 +1202,11 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 .refit(0, n, 3 * REFIT_ITERATIONS, target)
                 .max(f.max_error());
         }
-        (max <= target).then(|| f.into_curve(KnotRule::Uniform))
+        if max <= target {
+            f.into_curve(KnotRule::Uniform)
+        } else {
+            None
+        }
     }
 }
 
