@@ -7,6 +7,7 @@ pub mod banded;
 pub mod beta;
 pub mod bezier;
 pub mod bspline;
+pub mod cancel;
 pub mod curve;
 pub mod document;
 pub mod fit;

@@ -132,6 +132,8 @@ pub struct ToleranceOptions {
     pub seed_factor: f64,
     /// Most control points per curve (default: the number of points).
     pub max_control_points: Option<usize>,
+    /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
+    pub cancel: super::cancel::Cancel,
 }
 
 impl Default for ToleranceOptions {
@@ -146,6 +148,7 @@ impl Default for ToleranceOptions {
             adaptive_knots: false,
             seed_factor: 4.0,
             max_control_points: None,
+            cancel: super::cancel::Cancel::inherit(),
         }
     }
 }
@@ -283,6 +286,7 @@ pub fn fit_to_tolerance(
         });
     }
     points.check_no_antipodal_neighbours()?;
+    let _scope = options.cancel.enter();
     let (base_params, free) = match params {
         Some(t) => (normalize_parameters(t, n)?, false),
         None => (
@@ -309,6 +313,7 @@ pub fn fit_to_tolerance(
     degrees.sort_unstable();
     degrees.dedup();
     for &p in &degrees {
+        options.cancel.check()?;
         let budget = found
             .iter()
             .filter(|(_, m)| m.max_error_rad <= tolerance_rad)
@@ -331,6 +336,7 @@ pub fn fit_to_tolerance(
             found.push((c, m));
         }
     }
+    options.cancel.check()?;
     let candidates: Vec<Candidate> = found
         .iter()
         .map(|(c, m)| Candidate {
@@ -502,7 +508,7 @@ fn uniform_search<D: Dim, G: Degree>(
         return None;
     }
     let mut best = Some(top);
-    while lo < hi {
+    while lo < hi && !super::cancel::cancelled() {
         let mid = (lo + hi) / 2;
         match try_count(mid) {
             Some(f) if f.max_error() <= target => {
@@ -1015,7 +1021,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     self.err.clone(),
                 ));
             }
-            if max <= target || n >= cap {
+            if max <= target || n >= cap || super::cancel::cancelled() {
                 break;
             }
             // Worst out-of-tolerance point per span.
@@ -1103,7 +1109,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         for _ in 0..REMOVAL_SWEEPS {
             let mut removed = 0;
             let mut r = p + 1;
-            while r < self.n_ctrl() {
+            while r < self.n_ctrl() && !super::cancel::cancelled() {
                 if self.try_remove(r, target) {
                     removed += 1;
                 } else {
