@@ -3,14 +3,15 @@
 //! Smooth spline curves through and near ordered points on the sphere S^n.
 //!
 //! Layers, dependencies pointing one way:
-//! * [`sphere`]: math on S^n, knowing nothing of GeoJSON, HTTP or metres:
-//!   [`sphere::point`] (unit vectors, SLERP, log/exp maps), [`sphere::bspline`] (de Boor with
-//!   SLERP and contribution coefficients), [`sphere::knots`] (parameters, adaptive knots),
-//!   [`mod@sphere::fit`] (GLS-PIA, `Solver::GaussNewton`), banded Cholesky in
-//!   [`sphere::banded`], [`sphere::metrics`] (geodesic errors),
-//!   [`sphere::beta`] and [`sphere::bezier`] (Beta-spline interpolation, Bézier curves),
-//!   [`sphere::tolerance`] and [`sphere::simplify`] (fitting to a tolerance, spherical
-//!   Douglas–Peucker), [`sphere::document`] (the JSON documents).
+//! * [`sphere`]: math on S^n, knowing nothing of GeoJSON, HTTP or metres, in folders by concern:
+//!   [`sphere::geometry`] (unit vectors, SLERP, log/exp maps), [`sphere::curve`] (the
+//!   B-spline with de Boor and contribution coefficients, Bézier curves, the
+//!   [`SphericalCurve`](sphere::SphericalCurve) trait), [`mod@sphere::fit`] (parameters and
+//!   knots, GLS-PIA, `Solver::GaussNewton`, geodesic error metrics), [`mod@sphere::interpolate`]
+//!   (Beta-spline interpolation), [`sphere::compress`] (fitting to a tolerance, spherical
+//!   Douglas–Peucker) and [`sphere::linalg`] (banded Cholesky).
+//! * [`document`]: the S^n JSON documents (points in, splines and fit results out) shared by the
+//!   CLI and the service.
 //! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out.
 //! * [`service`]: the HTTP service (axum): `/v1/fit`, `/v1/interpolate`, `/v1/evaluate` and the
 //!   S^n documents under `/v1/sphere/`.
@@ -33,7 +34,10 @@
 //! assert_eq!(dense.len(), 500);
 //! ```
 
+#[cfg(feature = "cli")]
 pub mod cli;
+pub mod document;
 pub mod earth;
+#[cfg(feature = "service")]
 pub mod service;
 pub mod sphere;

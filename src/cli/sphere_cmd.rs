@@ -1,7 +1,7 @@
 //! `spherefit sphere fit | interpolate | evaluate`: the math core on S^n, JSON in and out.
 
 use super::{read_json, write_json, Failure};
-use crate::sphere::beta::{curve_from_json, InterpolationDocument};
+use crate::document::{curve_from_json, InterpolationDocument};
 use crate::sphere::document::{tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, Solver, StepRule};

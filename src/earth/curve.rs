@@ -9,7 +9,8 @@ use super::sampling::{
     sample, DenseCurve, Sampling, AUTO_DEVIATION_FLOOR_M, AUTO_DEVIATION_FRACTION,
 };
 use super::{EarthError, InterpolateSettings, Limits, OutputOptions, Problem};
-use crate::sphere::beta::{interpolate, BetaDocument, InterpolationOptions, SphericalBetaSpline};
+use crate::document::BetaDocument;
+use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
 use crate::sphere::fit::default_control_points;
 use crate::sphere::metrics::{measure, pointwise_errors};
 use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};

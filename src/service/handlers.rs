@@ -5,11 +5,12 @@
 use super::error::ApiError;
 use super::query::{self, fit_options, GeoEndpoint, Params};
 use super::{AppState, ServiceConfig, OPENAPI_YAML};
+use crate::document::{curve_from_json, InterpolationDocument};
 use crate::earth::{Document, EarthError, FeatureStats, Job};
-use crate::sphere::beta::{curve_from_json, interpolate, InterpolationDocument};
 use crate::sphere::document::{
     pointer_for, tolerance_document, FitDocument, PointsInput, SamplesDocument,
 };
+use crate::sphere::interpolate;
 use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::{InterpolationOptions, SphereError, SphericalCurve};
 use axum::body::{Body, Bytes};

@@ -3,30 +3,31 @@
 //! Nothing here knows about GeoJSON, HTTP or metres; the Earth layer ([`crate::earth`]) builds
 //! on it. Every public result is a unit vector (|norm - 1| < 1e-12).
 
-pub mod banded;
-pub mod beta;
-pub mod bezier;
-pub mod bspline;
+pub mod compress;
 pub mod curve;
-pub mod document;
 pub mod fit;
-mod gauss_newton;
-mod jacobian;
-pub mod knots;
-pub mod metrics;
-mod pass;
-pub mod point;
-pub mod simplify;
-pub mod tolerance;
+pub mod geometry;
+pub mod interpolate;
+pub mod linalg;
 
-pub use beta::{
-    interpolate, AnyCurve, BetaDocument, BetaInterpolation, BetaSolver, InterpolationOptions,
-    SphericalBetaSpline,
-};
+// The flat module paths from before the folders, kept so code written against them compiles.
+#[doc(hidden)]
+pub use crate::document;
+pub use compress::{simplify, tolerance};
+pub use curve::{bezier, bspline};
+pub use fit::{knots, metrics};
+pub use geometry::point;
+pub use interpolate::beta;
+pub use linalg::banded;
+
+#[doc(hidden)]
+pub use crate::document::{BetaDocument, SplineDocument};
+pub use beta::{interpolate, BetaInterpolation, BetaSolver, InterpolationOptions};
 pub use bezier::SphericalBezier;
 pub use bspline::SphericalBSpline;
+pub use curve::beta::SphericalBetaSpline;
+pub use curve::AnyCurve;
 pub use curve::SphericalCurve;
-pub use document::SplineDocument;
 pub use fit::{
     fit, gls_pia, gls_pia_iteration, FitOptions, FitReport, IterationError, Solver, StepRule,
 };
@@ -105,8 +106,8 @@ pub enum SphereError {
 /// Entry points that exist only so `benches/` can compare implementation choices.
 #[doc(hidden)]
 pub mod bench_hooks {
-    use super::pass::{run_pass_dim, PassMode};
-    use super::point::Dynamic;
+    use super::fit::pass::{run_pass_dim, PassMode};
+    use super::geometry::point::Dynamic;
     use super::{ErrorMetrics, PointSet, SphericalBSpline};
 
     /// One accumulate pass with the runtime-dimension kernel, whatever the dimension: measures

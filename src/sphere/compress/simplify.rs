@@ -1,0 +1,285 @@
+//! Spherical Douglas–Peucker: the baseline that [`fit_to_tolerance`](super::tolerance::fit_to_tolerance)
+//! must beat.
+//!
+//! The error of a point is its *cross-track* distance to the simplified line: the geodesic
+//! distance (radians) from the point to the minor great-circle arc between the two kept vertices
+//! that bracket it, or to the nearer end of that arc when the closest point of the great circle
+//! lies outside it ([`distance_to_arc`]). This works on any S^n: the arc spans a plane through
+//! the origin, and the distance comes from the point's components in and out of that plane.
+//!
+//! The recursion of Douglas & Peucker (1973) runs on an explicit stack, so a million points, or
+//! a pathological line that splits one vertex at a time, cannot overflow the call stack. Cost:
+//! O(n log n) on typical lines, O(n²) in the worst case, like the planar algorithm.
+
+use crate::sphere::geometry::point::{
+    diff_sum_sq, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
+};
+
+/// Arcs shorter than this are treated as a point: the plane they span is undefined to rounding
+/// (the direction of `b − (a·b) a` has relative error ~1e-16 / θ, which is 1e-4 here; below it
+/// the distance to the end point differs from the distance to the arc by less than 1e-12 rad).
+const DEGENERATE_ARC_RAD: f64 = 1e-12;
+
+/// A minor great-circle arc prepared for many distance queries: `e1 = a`, `e2` the unit tangent
+/// at `a` towards `b`, and the arc's angle.
+struct ArcFrame {
+    e1: Vec<f64>,
+    e2: Vec<f64>,
+    b: Vec<f64>,
+    theta: f64,
+    /// The end points are (nearly) antipodal: the minor arc is undefined.
+    antipodal: bool,
+}
+
+impl ArcFrame {
+    fn new<D: Dim>(d: D, a: &[f64], b: &[f64]) -> ArcFrame {
+        let dim = d.get();
+        let theta = Arc::between(d, a, b).theta;
+        let cos = dot(d, a, b);
+        let mut e2: Vec<f64> = (0..dim).map(|k| b[k] - cos * a[k]).collect();
+        if theta >= DEGENERATE_ARC_RAD {
+            normalize(d, &mut e2);
+        }
+        ArcFrame {
+            e1: a[..dim].to_vec(),
+            e2,
+            b: b[..dim].to_vec(),
+            theta,
+            antipodal: theta > std::f64::consts::PI - ANTIPODAL_MARGIN_RAD,
+        }
+    }
+
+    #[inline(always)]
+    fn distance<D: Dim>(&self, d: D, q: &[f64]) -> f64 {
+        let end_a = || angle_of(d, q, &self.e1);
+        if self.theta < DEGENERATE_ARC_RAD {
+            return end_a();
+        }
+        let (e1, e2) = (&self.e1[..d.get()], &self.e2[..d.get()]);
+        let x = dot(d, q, e1);
+        let y = dot(d, q, e2);
+        // Position of the point's projection along the great circle, measured from a.
+        let phi = y.atan2(x);
+        if (0.0..=self.theta).contains(&phi) {
+            // |q − proj| computed directly (not as sqrt(1 − |proj|²), which loses half the
+            // digits for points near the circle).
+            let mut perp_sq = 0.0;
+            for k in 0..d.get() {
+                let r = q[k] - x * e1[k] - y * e2[k];
+                perp_sq += r * r;
+            }
+            perp_sq.sqrt().atan2(x.hypot(y))
+        } else {
+            end_a().min(angle_of(d, q, &self.b))
+        }
+    }
+}
+
+#[inline(always)]
+fn angle_of<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
+    let (m2, p2) = diff_sum_sq(d, a, b);
+    2.0 * m2.sqrt().atan2(p2.sqrt())
+}
+
+/// Geodesic distance (radians) from unit vector `q` to the minor great-circle arc from `a` to
+/// `b`: the cross-track distance when the foot of the perpendicular lies on the arc, otherwise
+/// the distance to the nearer end point. When `a` and `b` coincide it is the distance to `a`.
+/// (Nearly) antipodal `a`, `b` have no minor arc; the result is then the distance to the nearer
+/// end point, an upper bound of the distance to any arc joining them.
+///
+/// # Panics
+/// If the slices differ in length.
+///
+/// # Example
+/// ```
+/// use spherefit::sphere::simplify::distance_to_arc;
+/// let (a, b) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+/// let h = 0.1_f64;
+/// let q = [h.cos() * 0.5_f64.sqrt(), h.cos() * 0.5_f64.sqrt(), h.sin()];
+/// assert!((distance_to_arc(&q, &a, &b) - 0.1).abs() < 1e-15);
+/// ```
+pub fn distance_to_arc(q: &[f64], a: &[f64], b: &[f64]) -> f64 {
+    assert!(q.len() == a.len() && a.len() == b.len(), "one dimension");
+    crate::with_dim!(q.len(), |d| {
+        let frame = ArcFrame::new(d, a, b);
+        if frame.antipodal {
+            angle_of(d, q, a).min(angle_of(d, q, b))
+        } else {
+            frame.distance(d, q)
+        }
+    })
+}
+
+/// Spherical Douglas–Peucker: the indices of the points kept (ascending, always the first and
+/// the last) so that every point lies within `tolerance_rad` of the minor arc between the kept
+/// vertices that bracket it.
+///
+/// Repeated points are harmless. Two kept neighbours that are (nearly) antipodal have no minor
+/// arc: such a segment is always split.
+///
+/// # Example
+/// ```
+/// use spherefit::sphere::{simplify::douglas_peucker, PointSet};
+/// let rows: Vec<[f64; 3]> = (0..5).map(|i| { let a = 0.1 * i as f64; [a.cos(), a.sin(), 0.0] }).collect();
+/// let line = PointSet::try_from_rows(&rows).unwrap();
+/// assert_eq!(douglas_peucker(&line, 1e-9), vec![0, 4]); // all on one great circle
+/// ```
+pub fn douglas_peucker(points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
+    let n = points.len();
+    if n <= 2 {
+        return (0..n).collect();
+    }
+    crate::with_dim!(points.dim(), |d| douglas_peucker_dim(
+        d,
+        points,
+        tolerance_rad
+    ))
+}
+
+fn douglas_peucker_dim<D: Dim>(d: D, points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
+    let n = points.len();
+    let mut keep = vec![false; n];
+    keep[0] = true;
+    keep[n - 1] = true;
+    let mut stack = vec![(0, n - 1)];
+    while let Some((i0, i1)) = stack.pop() {
+        if i1 <= i0 + 1 {
+            continue;
+        }
+        let frame = ArcFrame::new(d, points.get(i0), points.get(i1));
+        let split = if frame.antipodal {
+            Some((i0 + i1) / 2)
+        } else {
+            let (mut worst, mut at) = (-1.0, i0 + 1);
+            for j in i0 + 1..i1 {
+                let e = frame.distance(d, points.get(j));
+                if e > worst {
+                    worst = e;
+                    at = j;
+                }
+            }
+            (worst > tolerance_rad).then_some(at)
+        };
+        if let Some(j) = split {
+            keep[j] = true;
+            stack.push((j, i1));
+            stack.push((i0, j));
+        }
+    }
+    (0..n).filter(|&i| keep[i]).collect()
+}
+
+/// The largest distance (radians) of any point from the simplified line given by `kept`
+/// (ascending indices including the first and last point): each point is measured against the
+/// arc between the kept vertices that bracket it, as Douglas–Peucker does.
+///
+/// # Panics
+/// If `kept` does not start at 0, end at the last point, or is not increasing.
+pub fn max_deviation(points: &PointSet, kept: &[usize]) -> f64 {
+    let n = points.len();
+    assert!(!kept.is_empty() && kept[0] == 0 && kept[kept.len() - 1] == n - 1);
+    assert!(
+        kept.windows(2).all(|w| w[0] < w[1]),
+        "kept indices increase"
+    );
+    crate::with_dim!(points.dim(), |d| {
+        let mut worst: f64 = 0.0;
+        for w in kept.windows(2) {
+            let (a, b) = (points.get(w[0]), points.get(w[1]));
+            let frame = ArcFrame::new(d, a, b);
+            for j in w[0] + 1..w[1] {
+                let q = points.get(j);
+                let e = if frame.antipodal {
+                    angle_of(d, q, a).min(angle_of(d, q, b))
+                } else {
+                    frame.distance(d, q)
+                };
+                worst = worst.max(e);
+            }
+        }
+        worst
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn on_equator(lon: f64, lat: f64) -> [f64; 3] {
+        [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
+    }
+
+    #[test]
+    fn cross_track_inside_and_beyond_the_arc() {
+        let (a, b) = (on_equator(0.0, 0.0), on_equator(0.5, 0.0));
+        // Inside: the distance is the latitude.
+        for lat in [1e-9, 1e-5, 0.01, -0.3, 1.2] {
+            let q = on_equator(0.2, lat);
+            assert_relative_eq!(distance_to_arc(&q, &a, &b), lat.abs(), max_relative = 1e-12);
+        }
+        // Beyond b and before a: the distance to the end point, not to the great circle.
+        let q = on_equator(0.7, 0.01);
+        let expected = angle_of(crate::sphere::geometry::point::Fixed::<3>, &q, &b);
+        assert_relative_eq!(distance_to_arc(&q, &a, &b), expected, max_relative = 1e-14);
+        assert!(expected > 0.2);
+        let q = on_equator(-0.1, 0.0);
+        assert_relative_eq!(distance_to_arc(&q, &a, &b), 0.1, max_relative = 1e-14);
+        // A degenerate arc is its point.
+        let q = on_equator(0.3, 0.4);
+        let expected = angle_of(crate::sphere::geometry::point::Fixed::<3>, &q, &a);
+        assert_relative_eq!(distance_to_arc(&q, &a, &a), expected, max_relative = 1e-14);
+    }
+
+    #[test]
+    fn cross_track_on_s3_matches_an_embedded_s2() {
+        let (a, b, q) = (
+            on_equator(0.1, 0.0),
+            on_equator(0.9, 0.0),
+            on_equator(0.4, 0.2),
+        );
+        let lift = |v: [f64; 3]| [v[0], 0.0, v[1], v[2]];
+        assert_relative_eq!(
+            distance_to_arc(&lift(q), &lift(a), &lift(b)),
+            distance_to_arc(&q, &a, &b),
+            max_relative = 1e-14
+        );
+    }
+
+    #[test]
+    fn simplification_meets_the_tolerance_and_keeps_corners() {
+        // Two great-circle legs with a corner at index 50 (east, then north), and a bump at 75.
+        let rows: Vec<[f64; 3]> = (0..101)
+            .map(|i| {
+                let s = i as f64 / 100.0;
+                match i {
+                    0..=50 => on_equator(s, 0.0),
+                    75 => on_equator(0.502, s - 0.5),
+                    _ => on_equator(0.5, s - 0.5),
+                }
+            })
+            .collect();
+        let line = PointSet::try_from_rows(&rows).unwrap();
+        let kept = douglas_peucker(&line, 1e-4);
+        for v in [0, 50, 75, 100] {
+            assert!(kept.contains(&v), "{kept:?}");
+        }
+        assert!(max_deviation(&line, &kept) <= 1e-4);
+        let coarse = douglas_peucker(&line, 1e-2);
+        assert_eq!(coarse, vec![0, 50, 100]);
+        assert!(max_deviation(&line, &coarse) <= 1e-2);
+        assert!(max_deviation(&line, &[0, 100]) > 0.1);
+    }
+
+    #[test]
+    fn a_million_points_do_not_overflow_the_stack() {
+        // A zig-zag forces a split at every vertex: the worst case for recursion depth.
+        let n = 1_000_000;
+        let rows: Vec<[f64; 3]> = (0..n)
+            .map(|i| on_equator(i as f64 * 1e-6, if i % 2 == 0 { 0.0 } else { 1e-5 }))
+            .collect();
+        let line = PointSet::try_from_rows(&rows).unwrap();
+        let kept = douglas_peucker(&line, 1e-6);
+        assert_eq!(kept.len(), n);
+    }
+}

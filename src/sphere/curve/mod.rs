@@ -1,0 +1,95 @@
+//! What every curve on S^n offers to output code: its domain, and points at parameters.
+//! Implemented by the B-spline and the Beta-spline, so sampling, GeoJSON output and the
+//! `evaluate` commands serve both.
+
+pub mod beta;
+pub mod bezier;
+pub mod bspline;
+
+use crate::sphere::geometry::point::PointSet;
+use beta::SphericalBetaSpline;
+use bspline::SphericalBSpline;
+
+/// A parametric curve on S^n.
+pub trait SphericalCurve: Send + Sync {
+    /// Number of coordinates per point.
+    fn dim(&self) -> usize;
+
+    /// The parameter interval `[start, end]`; evaluation outside it clamps.
+    fn domain(&self) -> (f64, f64);
+
+    /// The curve at every parameter of `ts` (unit vectors).
+    fn evaluate_many(&self, ts: &[f64]) -> PointSet;
+
+    /// The curve at one parameter.
+    fn evaluate_at(&self, t: f64) -> Vec<f64> {
+        self.evaluate_many(&[t]).get(0).to_vec()
+    }
+
+    /// `count` parameters evenly spaced over the domain (ends included) and the curve there.
+    fn sample(&self, count: usize) -> (Vec<f64>, PointSet) {
+        let ts = even_parameters(self.domain(), count);
+        let pts = self.evaluate_many(&ts);
+        (ts, pts)
+    }
+}
+
+/// `count` evenly spaced values over `[a, b]`, both ends included (one value: `a`).
+pub fn even_parameters((a, b): (f64, f64), count: usize) -> Vec<f64> {
+    match count {
+        0 => Vec::new(),
+        1 => vec![a],
+        _ => (0..count)
+            .map(|i| {
+                if i + 1 == count {
+                    b
+                } else {
+                    a + (b - a) * i as f64 / (count - 1) as f64
+                }
+            })
+            .collect(),
+    }
+}
+
+/// Either curve: a B-spline or a Beta-spline, so output code (sampling, GeoJSON, `evaluate`) takes one
+/// type.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AnyCurve {
+    /// A spherical B-spline (spline document, `sphere fit` output).
+    BSpline(SphericalBSpline),
+    /// A spherical Beta-spline (Beta-spline document, `sphere interpolate` output).
+    Beta(SphericalBetaSpline),
+}
+
+impl SphericalCurve for AnyCurve {
+    fn dim(&self) -> usize {
+        match self {
+            AnyCurve::BSpline(s) => s.dim(),
+            AnyCurve::Beta(s) => s.dim(),
+        }
+    }
+    fn domain(&self) -> (f64, f64) {
+        match self {
+            AnyCurve::BSpline(s) => s.domain(),
+            AnyCurve::Beta(s) => s.domain(),
+        }
+    }
+    fn evaluate_many(&self, ts: &[f64]) -> PointSet {
+        match self {
+            AnyCurve::BSpline(s) => s.evaluate_many(ts),
+            AnyCurve::Beta(s) => s.evaluate_many(ts),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn even_parameters_include_both_ends() {
+        assert_eq!(even_parameters((0.0, 1.0), 3), vec![0.0, 0.5, 1.0]);
+        assert_eq!(even_parameters((2.0, 3.0), 1), vec![2.0]);
+        assert!(even_parameters((0.0, 1.0), 0).is_empty());
+    }
+}

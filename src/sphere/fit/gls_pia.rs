@@ -1,0 +1,487 @@
+//! GLS-PIA: progressive iterative approximation on the geodesic least-squares loss (GLS-PIA
+//! paper §5, Algorithm 1).
+//!
+//! Each iteration evaluates the curve at every data parameter, forms the error vector
+//! `δ_j = (q_j − C(t_j)) / |q_j − C(t_j)| · θ_j` (chord direction, geodesic length), shares it
+//! out to the control points by their contribution coefficients, `Δ_i = μ_i Σ_j D_i(t_j) δ_j`,
+//! and moves every control point at once: `P_i ← (P_i + Δ_i) / |P_i + Δ_i|`.
+
+use super::knots::{
+    greville_control_points, normalize_parameters, parameters, place_knots, KnotPlacement,
+    Parameterization,
+};
+use super::metrics::ErrorMetrics;
+use super::pass::{run_pass, PassMode};
+use crate::sphere::curve::bspline::{SphericalBSpline, MAX_DEGREE};
+use crate::sphere::geometry::point::{normalize, Dynamic, PointSet};
+use crate::sphere::SphereError;
+use serde::{Deserialize, Serialize};
+
+/// The paper's iteration count (§6).
+pub const DEFAULT_ITERATIONS: usize = 30;
+
+/// An iteration that lowers the RMS error by less than this fraction counts as stagnation: the
+/// iteration has reached its fixed point to about 9 significant digits.
+pub const DEFAULT_STAGNATION: f64 = 1e-9;
+
+/// The step size μ of the update `Δ_i = μ_i Σ_j D_i(t_j) δ_j`; the paper only bounds it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StepRule {
+    /// Deng–Lin: `μ_i = 1 / Σ_j D_i(t_j)`, per control point, recomputed every iteration.
+    /// Best or equal in almost every case measured (METHOD.md).
+    #[default]
+    DengLin,
+    /// One global `μ = 1 / λ_max(AᵀA)` of the initial contribution matrix A, by power iteration:
+    /// the step the paper's convergence argument uses.
+    Global,
+    /// A fixed global μ given by the caller.
+    Constant(f64),
+}
+
+impl std::str::FromStr for StepRule {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "deng-lin" => Ok(StepRule::DengLin),
+            "global" => Ok(StepRule::Global),
+            _ => match s.parse::<f64>() {
+                Ok(mu) if mu > 0.0 && mu.is_finite() => Ok(StepRule::Constant(mu)),
+                _ => Err(format!(
+                    "unknown step {s:?}: use deng-lin, global or a positive number"
+                )),
+            },
+        }
+    }
+}
+
+/// Which optimiser moves the control points.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Solver {
+    /// GLS-PIA exactly as the paper describes (progressive iterative approximation).
+    #[default]
+    GlsPia,
+    /// Gauss–Newton / Levenberg–Marquardt on the same loss with banded normal equations:
+    /// reaches GLS-PIA's fixed point in a few passes (see `gauss_newton.rs`).
+    GaussNewton,
+}
+
+impl std::str::FromStr for Solver {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "gls-pia" => Ok(Solver::GlsPia),
+            "gauss-newton" => Ok(Solver::GaussNewton),
+            _ => Err(format!("unknown solver {s:?}: use gls-pia or gauss-newton")),
+        }
+    }
+}
+
+/// What to fit and how. `Default` is the paper's setting: cubic, geodesic-difference knots,
+/// chord-length parameters, Deng–Lin steps, 30 iterations.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitOptions {
+    /// Number of control points; `None` picks [`default_control_points`].
+    pub control_points: Option<usize>,
+    /// Degree 1 to 5.
+    pub degree: usize,
+    /// Knot placement (ignored when `knot_vector` is given).
+    pub knots: KnotPlacement,
+    /// An explicit clamped knot vector on [0, 1], e.g. to refit with known knots.
+    pub knot_vector: Option<Vec<f64>>,
+    /// How data points get parameters (ignored when parameters are given).
+    pub parameterization: Parameterization,
+    /// Maximum number of GLS-PIA updates.
+    pub iterations: usize,
+    /// Stop as soon as the max error is at or below this (radians).
+    pub target_max_error_rad: Option<f64>,
+    /// Stop when an iteration lowers the RMS error by less than this fraction.
+    pub stagnation: f64,
+    /// Step size rule (GLS-PIA only).
+    pub step: StepRule,
+    /// The optimiser.
+    pub solver: Solver,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            control_points: None,
+            degree: 3,
+            knots: KnotPlacement::Geodesic,
+            knot_vector: None,
+            parameterization: Parameterization::Chord,
+            iterations: DEFAULT_ITERATIONS,
+            target_max_error_rad: None,
+            stagnation: DEFAULT_STAGNATION,
+            step: StepRule::DengLin,
+            solver: Solver::GlsPia,
+        }
+    }
+}
+
+impl FitOptions {
+    /// Sets the number of control points.
+    pub fn with_control_points(mut self, n: usize) -> Self {
+        self.control_points = Some(n);
+        self
+    }
+    /// Sets the degree.
+    pub fn with_degree(mut self, p: usize) -> Self {
+        self.degree = p;
+        self
+    }
+    /// Sets the knot placement.
+    pub fn with_knots(mut self, k: KnotPlacement) -> Self {
+        self.knots = k;
+        self
+    }
+    /// Uses an explicit knot vector (its length fixes the number of control points).
+    pub fn with_knot_vector(mut self, k: Vec<f64>) -> Self {
+        self.knot_vector = Some(k);
+        self
+    }
+    /// Sets the parameterisation.
+    pub fn with_parameterization(mut self, p: Parameterization) -> Self {
+        self.parameterization = p;
+        self
+    }
+    /// Sets the maximum number of iterations.
+    pub fn with_iterations(mut self, n: usize) -> Self {
+        self.iterations = n;
+        self
+    }
+    /// Stops once the max error reaches this many radians.
+    pub fn with_target_max_error_rad(mut self, e: f64) -> Self {
+        self.target_max_error_rad = Some(e);
+        self
+    }
+    /// Sets the solver.
+    pub fn with_solver(mut self, s: Solver) -> Self {
+        self.solver = s;
+        self
+    }
+    /// Sets the step rule.
+    pub fn with_step(mut self, s: StepRule) -> Self {
+        self.step = s;
+        self
+    }
+}
+
+/// The default number of control points for `n` data points and degree `p`: a quarter of the
+/// points (at least p + 1, at most n): the curve then stores about a quarter of the numbers.
+pub fn default_control_points(n: usize, p: usize) -> usize {
+    n.div_ceil(4).max(p + 1).min(n)
+}
+
+/// Max and mean error of one iteration's curve (index 0 of a history is the initial curve).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IterationError {
+    pub max_error_rad: f64,
+    pub mean_error_rad: f64,
+}
+
+/// The result of a fit.
+#[derive(Clone, Debug)]
+pub struct FitReport {
+    /// The fitted curve.
+    pub spline: SphericalBSpline,
+    /// Data parameters used, in [0, 1].
+    pub parameters: Vec<f64>,
+    /// Errors of the returned curve at the data parameters.
+    pub metrics: ErrorMetrics,
+    /// Number of control point updates made (accepted steps for Gauss–Newton).
+    pub iterations: usize,
+    /// True when the iteration stopped because it met the error target or stagnated, false when
+    /// it ran out of iterations.
+    pub converged: bool,
+    /// Max / mean error before the first update and after each one.
+    pub history: Vec<IterationError>,
+}
+
+/// Fits a spherical B-spline to ordered `points` with GLS-PIA (or, with
+/// [`Solver::GaussNewton`], the fast solver).
+///
+/// `given_params` (timestamps, for example) are normalised to [0, 1]; without them the
+/// parameters come from `options.parameterization`.
+///
+/// # Errors
+/// Too few points for the degree, more control points than points, an invalid degree, knot
+/// vector or parameter list, all points equal, or antipodal neighbours.
+///
+/// # Example
+/// ```
+/// use spherefit::sphere::{fit, FitOptions, PointSet};
+/// let rows: Vec<Vec<f64>> = (0..50)
+///     .map(|i| { let a = i as f64 * 0.02; vec![a.cos(), a.sin(), 0.1 * (3.0 * a).sin()] })
+///     .map(|v| { let n = v.iter().map(|x| x * x).sum::<f64>().sqrt(); v.iter().map(|x| x / n).collect() })
+///     .collect();
+/// let points = PointSet::try_from_rows(&rows).unwrap();
+/// let report = fit(&points, None, &FitOptions::default().with_control_points(8)).unwrap();
+/// assert!(report.metrics.max_error_rad < 1e-3);
+/// ```
+pub fn fit(
+    points: &PointSet,
+    given_params: Option<&[f64]>,
+    options: &FitOptions,
+) -> Result<FitReport, SphereError> {
+    let p = options.degree;
+    if p == 0 || p > MAX_DEGREE {
+        return Err(SphereError::InvalidDegree {
+            got: p,
+            max: MAX_DEGREE,
+        });
+    }
+    let n = points.len();
+    if n < p + 1 {
+        return Err(SphereError::TooFewPoints {
+            got: n,
+            need: p + 1,
+        });
+    }
+    points.check_no_antipodal_neighbours()?;
+    let params = match given_params {
+        Some(t) => normalize_parameters(t, n)?,
+        None => parameters(points, options.parameterization)?,
+    };
+    let knots = match &options.knot_vector {
+        Some(k) => k.clone(),
+        None => {
+            let n_ctrl = options
+                .control_points
+                .unwrap_or_else(|| default_control_points(n, p));
+            if n_ctrl < p + 1 || n_ctrl > n {
+                return Err(SphereError::InvalidControlPointCount {
+                    got: n_ctrl,
+                    degree: p,
+                    min: p + 1,
+                    max: n,
+                });
+            }
+            place_knots(points, &params, n_ctrl, p, options.knots)?
+        }
+    };
+    if knots.len() < 2 * (p + 1) {
+        return Err(SphereError::InvalidKnots {
+            reason: format!(
+                "{} knots cannot clamp a degree-{p} spline (need at least {})",
+                knots.len(),
+                2 * (p + 1)
+            ),
+        });
+    }
+    let initial = greville_control_points(points, &params, &knots, p)?;
+    let spline = SphericalBSpline::try_new(p, knots, initial)?;
+    Ok(match options.solver {
+        Solver::GlsPia => gls_pia(spline, points, params, options),
+        Solver::GaussNewton => super::gauss_newton::gauss_newton(spline, points, params, options),
+    })
+}
+
+/// Runs GLS-PIA from `spline` (its knots are kept) on points with known parameters.
+pub fn gls_pia(
+    mut spline: SphericalBSpline,
+    points: &PointSet,
+    params: Vec<f64>,
+    options: &FitOptions,
+) -> FitReport {
+    let global_mu = match options.step {
+        StepRule::DengLin => None,
+        StepRule::Global => Some(1.0 / largest_eigenvalue(&spline, &params)),
+        StepRule::Constant(mu) => Some(mu),
+    };
+    let mut history = Vec::with_capacity(options.iterations + 1);
+    let mut best: Option<(SphericalBSpline, ErrorMetrics)> = None;
+    let mut iterations = 0;
+    let mut converged = false;
+    let mut last_rms = f64::INFINITY;
+    loop {
+        let mode = if iterations < options.iterations {
+            PassMode::Accumulate
+        } else {
+            PassMode::Measure
+        };
+        let pass = run_pass(&spline, points, &params, mode);
+        let m = pass.errors.metrics();
+        history.push(IterationError {
+            max_error_rad: m.max_error_rad,
+            mean_error_rad: m.mean_error_rad,
+        });
+        if best
+            .as_ref()
+            .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
+        {
+            best = Some((spline.clone(), m));
+        }
+        let target_met = options
+            .target_max_error_rad
+            .is_some_and(|e| m.max_error_rad <= e);
+        let stagnated =
+            iterations > 0 && last_rms - m.rms_error_rad <= options.stagnation * last_rms;
+        if target_met || stagnated || m.max_error_rad == 0.0 {
+            converged = true;
+            break;
+        }
+        if mode == PassMode::Measure {
+            break;
+        }
+        last_rms = m.rms_error_rad;
+        apply_moves(&mut spline, &pass.moves, &pass.weights, global_mu);
+        iterations += 1;
+    }
+    let (spline, metrics) = best.expect("at least one pass ran");
+    FitReport {
+        spline,
+        parameters: params,
+        metrics,
+        iterations,
+        converged,
+        history,
+    }
+}
+
+/// One GLS-PIA iteration in place: measures the current curve, moves every control point, and
+/// returns the errors measured *before* the move. `step` as in [`FitOptions::step`]
+/// (`StepRule::Global` is computed afresh here; [`gls_pia`] computes it once).
+pub fn gls_pia_iteration(
+    spline: &mut SphericalBSpline,
+    points: &PointSet,
+    params: &[f64],
+    step: StepRule,
+) -> ErrorMetrics {
+    let global_mu = match step {
+        StepRule::DengLin => None,
+        StepRule::Global => Some(1.0 / largest_eigenvalue(spline, params)),
+        StepRule::Constant(mu) => Some(mu),
+    };
+    let pass = run_pass(spline, points, params, PassMode::Accumulate);
+    apply_moves(spline, &pass.moves, &pass.weights, global_mu);
+    pass.errors.metrics()
+}
+
+/// `P_i ← (P_i + μ_i M_i) / |P_i + μ_i M_i|` with `M_i = Σ_j D_i(t_j) δ_j` and `μ_i = 1 / Σ_j
+/// D_i(t_j)` (Deng–Lin) unless a global μ is given.
+fn apply_moves(
+    spline: &mut SphericalBSpline,
+    moves: &[f64],
+    weights: &[f64],
+    global_mu: Option<f64>,
+) {
+    let dim = spline.dim();
+    let control = spline.control_points_mut();
+    for i in 0..control.len() {
+        let w = weights[i];
+        if w <= 0.0 {
+            continue; // no data in this control point's support: nothing pulls it
+        }
+        let mu = global_mu.unwrap_or(1.0 / w);
+        let pi = control.get_mut(i);
+        for (x, mv) in pi.iter_mut().zip(&moves[i * dim..(i + 1) * dim]) {
+            *x += mu * mv;
+        }
+        normalize(Dynamic(dim), pi);
+    }
+}
+
+/// λ_max(AᵀA) of the contribution matrix A (rows: data points, columns: control points) by
+/// power iteration; A is banded, so each product costs O(n p).
+fn largest_eigenvalue(spline: &SphericalBSpline, params: &[f64]) -> f64 {
+    let n_ctrl = spline.control_points().len();
+    let rows: Vec<_> = params.iter().map(|&t| spline.contributions(t)).collect();
+    let mut v = vec![1.0 / (n_ctrl as f64).sqrt(); n_ctrl];
+    let mut lambda = 1.0;
+    for _ in 0..50 {
+        let mut w = vec![0.0; n_ctrl];
+        for r in &rows {
+            let av: f64 = r
+                .coefficients
+                .iter()
+                .enumerate()
+                .map(|(m, c)| c * v[r.first + m])
+                .sum();
+            for (m, c) in r.coefficients.iter().enumerate() {
+                w[r.first + m] += c * av;
+            }
+        }
+        let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm == 0.0 {
+            return 1.0;
+        }
+        lambda = norm;
+        v = w.into_iter().map(|x| x / norm).collect();
+    }
+    lambda
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wavy(n: usize) -> PointSet {
+        let rows: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let a = i as f64 / (n - 1) as f64 * 2.0;
+                let lat = 0.3 * (4.0 * a).sin();
+                vec![lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
+            })
+            .collect();
+        PointSet::try_from_rows(&rows).unwrap()
+    }
+
+    #[test]
+    fn error_falls_over_the_iterations() {
+        let pts = wavy(200);
+        let r = fit(&pts, None, &FitOptions::default().with_control_points(12)).unwrap();
+        assert_eq!(r.history.len(), 31);
+        assert!(r.history[30].mean_error_rad < 0.5 * r.history[0].mean_error_rad);
+        assert!(r.history[30].max_error_rad < r.history[0].max_error_rad);
+        assert!((r.metrics.max_error_rad - r.history[30].max_error_rad).abs() < 1e-15);
+    }
+
+    #[test]
+    fn target_error_stops_early() {
+        let pts = wavy(200);
+        let opts = FitOptions::default()
+            .with_control_points(40)
+            .with_target_max_error_rad(1e-3);
+        let r = fit(&pts, None, &opts).unwrap();
+        assert!(r.converged);
+        assert!(r.iterations < 30);
+        assert!(r.metrics.max_error_rad <= 1e-3);
+    }
+
+    #[test]
+    fn step_rules_all_reduce_the_error() {
+        let pts = wavy(100);
+        for step in [
+            StepRule::DengLin,
+            StepRule::Global,
+            StepRule::Constant(0.02),
+        ] {
+            let opts = FitOptions::default()
+                .with_control_points(10)
+                .with_step(step);
+            let r = fit(&pts, None, &opts).unwrap();
+            assert!(
+                r.metrics.mean_error_rad < r.history[0].mean_error_rad,
+                "{step:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn bad_requests_are_errors() {
+        let pts = wavy(10);
+        let e = fit(&pts, None, &FitOptions::default().with_control_points(11)).unwrap_err();
+        assert!(matches!(
+            e,
+            SphereError::InvalidControlPointCount { got: 11, .. }
+        ));
+        let e = fit(&pts, None, &FitOptions::default().with_degree(9)).unwrap_err();
+        assert!(matches!(e, SphereError::InvalidDegree { got: 9, .. }));
+        let few = PointSet::try_from_rows(&[vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0]]).unwrap();
+        let e = fit(&few, None, &FitOptions::default()).unwrap_err();
+        assert!(matches!(e, SphereError::TooFewPoints { got: 2, need: 4 }));
+    }
+}

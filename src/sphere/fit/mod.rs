@@ -1,0 +1,12 @@
+//! Fitting a spherical B-spline to ordered points: parameters and knots ([`knots`]), GLS-PIA
+//! ([`mod@gls_pia`]), the Gauss–Newton solver beside it, the shared data pass, and the geodesic
+//! error metrics ([`metrics`]).
+
+mod gauss_newton;
+pub mod gls_pia;
+mod jacobian;
+pub mod knots;
+pub mod metrics;
+pub(crate) mod pass;
+
+pub use gls_pia::*;

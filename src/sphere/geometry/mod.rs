@@ -1,0 +1,4 @@
+//! Geometry of S^n: unit vectors, geodesic angles, SLERP and the log/exp maps every curve and
+//! fitter builds on.
+
+pub mod point;

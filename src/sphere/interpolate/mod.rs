@@ -1,0 +1,3 @@
+//! Interpolation: curves through every point, with the cubic spherical Beta-spline ([`beta`]).
+
+pub mod beta;

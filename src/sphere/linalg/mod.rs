@@ -1,0 +1,5 @@
+//! Small linear algebra the fitters need: symmetric band matrices and their Cholesky factor,
+//! general band matrices and their pivoted LU factor.
+
+pub(crate) mod band_lu;
+pub mod banded;

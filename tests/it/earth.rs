@@ -1,0 +1,83 @@
+//! The Earth layer as a batch reader uses it: one feature at a time, with the same result as
+//! the HTTP service for the whole document, and errors that point into the document.
+
+use serde_json::{json, Value};
+use spherefit::earth::{process_feature, Document, Job, Problem, Sampling};
+use spherefit::sphere::FitOptions;
+
+const BORDER: &str = include_str!("../../fixtures/us_mexico_border_natural_earth.geojson");
+
+#[test]
+fn feature_by_feature_equals_the_whole_document() {
+    let fc: Value = serde_json::from_str(BORDER).unwrap();
+    let job = Job::fit(FitOptions::default().with_control_points(20))
+        .with_sampling(Sampling::Samples(200));
+    job.validate().unwrap();
+    // Streaming: each feature on its own, as a text-sequence reader would see it.
+    let one_by_one: Vec<Value> = fc["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            process_feature(f, &format!("/features/{i}"), &job)
+                .unwrap()
+                .feature
+        })
+        .collect();
+    // The whole document, as the service splits it.
+    let doc = Document::parse(fc.clone(), false).unwrap();
+    let outs: Vec<_> = doc.slots.iter().map(|s| s.process(&job).unwrap()).collect();
+    for (a, b) in one_by_one.iter().zip(&outs) {
+        assert_eq!(a, &b.feature);
+    }
+    let stats = outs.iter().fold(
+        Default::default(),
+        |mut acc: spherefit::earth::FeatureStats, o| {
+            acc.merge(&o.stats);
+            acc
+        },
+    );
+    assert_eq!(stats.curves, 3);
+    assert_eq!(stats.input_points, 28 + 142 + 966);
+    assert_eq!(stats.output_points, 600);
+    // 20 control points x 2 coordinates + 24 knots + the degree, per curve.
+    assert_eq!(stats.stored_numbers, 3 * (40 + 24 + 1));
+    assert!(stats.max_error_m > 0.0);
+    let collection =
+        doc.into_feature_collection(outs.into_iter().map(|o| o.feature).collect(), true);
+    assert_eq!(collection["features"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn errors_point_into_the_record() {
+    let job = Job::fit(FitOptions::default());
+    let bad = json!({"type": "Feature", "properties": {}, "geometry": {"type": "LineString",
+        "coordinates": [[0, 0], [1, 1], [2, -91]]}});
+    let e = process_feature(&bad, "", &job).unwrap_err();
+    assert_eq!(e.pointer, "/geometry/coordinates/2/1");
+    assert!(matches!(e.problem, Problem::InvalidCoordinate(_)));
+    let e = process_feature(&bad, "/features/7", &job).unwrap_err();
+    assert_eq!(e.pointer, "/features/7/geometry/coordinates/2/1");
+    assert_eq!(e.problem.slug(), "invalid-coordinate");
+}
+
+#[test]
+fn every_output_position_is_on_the_earth_and_rounded() {
+    let job = Job::fit(FitOptions::default()).with_precision(5);
+    let f = json!({"type": "Feature", "properties": null, "geometry": {"type": "LineString",
+        "coordinates": (0..100).map(|i| [170.0 + i as f64 * 0.2, 80.0 + 9.0 * (i as f64 / 99.0)]).map(|[a, b]| [if a > 180.0 { a - 360.0 } else { a }, b]).collect::<Vec<_>>()}});
+    let out = process_feature(&f, "", &job).unwrap().feature;
+    let g = &out["geometry"];
+    let lines: Vec<&Value> = match g["type"].as_str().unwrap() {
+        "LineString" => vec![&g["coordinates"]],
+        _ => g["coordinates"].as_array().unwrap().iter().collect(),
+    };
+    for l in lines {
+        for p in l.as_array().unwrap() {
+            let (lon, lat) = (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+            assert!((-180.0..=180.0).contains(&lon) && (-90.0..=90.0).contains(&lat));
+            assert_eq!((lon * 1e5).round() / 1e5, lon, "rounded to 5 decimals");
+        }
+    }
+}

@@ -1,0 +1,191 @@
+//! Helpers shared by the integration tests: fixture access, running the binary, deterministic
+//! pseudo-random numbers, unit vectors, knot vectors and known splines to sample from.
+
+use spherefit::sphere::point::{exp_map, PointSet};
+use spherefit::sphere::SphericalBSpline;
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
+
+/// Mean Earth radius (IUGG), metres per radian of geodesic angle.
+pub const EARTH_RADIUS_M: f64 = 6_371_008.8;
+
+/// Absolute path of a file under `fixtures/`. Tests read data only from there.
+pub fn fixture_path(name: &str) -> String {
+    format!("{}/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Runs the `spherefit` binary from the package root with `args`, feeding `stdin` if given.
+///
+/// Stdin is written from another thread: the child may fill its stdout pipe before it has read
+/// all of its input, and a write from this thread would then wait for ever.
+pub fn run_spherefit(args: &[&str], stdin: Option<&[u8]>) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_spherefit"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .stdin(if stdin.is_some() {
+            Stdio::piped()
+        } else {
+            Stdio::null()
+        })
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the spherefit binary runs");
+    let writer = stdin.map(|bytes| {
+        let mut pipe = child.stdin.take().expect("stdin is piped");
+        let bytes = bytes.to_vec();
+        std::thread::spawn(move || {
+            // A child that exits before reading everything closes the pipe: not an error here,
+            // its exit status and stderr say what happened.
+            let _ = pipe.write_all(&bytes);
+        })
+    });
+    let out = child
+        .wait_with_output()
+        .expect("the spherefit binary finishes");
+    if let Some(w) = writer {
+        w.join().expect("the stdin writer does not panic");
+    }
+    out
+}
+
+/// The JSON value in `fixtures/<name>`.
+pub fn read_fixture_json(name: &str) -> serde_json::Value {
+    let path = fixture_path(name);
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{path}: {e}"))
+}
+
+/// SplitMix64: a tiny deterministic generator, so test data is the same on every run and
+/// platform without a `rand` dependency.
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Standard normal (Box–Muller).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = self.uniform().max(1e-300);
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+
+    /// A uniformly distributed unit vector in R^dim.
+    pub fn unit_vector(&mut self, dim: usize) -> Vec<f64> {
+        loop {
+            let v: Vec<f64> = (0..dim).map(|_| self.normal()).collect();
+            if norm(&v) > 1e-6 {
+                return unit(&v);
+            }
+        }
+    }
+
+    /// A random tangent vector at `base` of length `len`.
+    pub fn tangent(&mut self, base: &[f64], len: f64) -> Vec<f64> {
+        loop {
+            let v: Vec<f64> = (0..base.len()).map(|_| self.normal()).collect();
+            let t = project_out(&v, base);
+            let n = norm(&t);
+            if n > 1e-6 {
+                return t.iter().map(|x| x * len / n).collect();
+            }
+        }
+    }
+}
+
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+pub fn norm(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+pub fn unit(a: &[f64]) -> Vec<f64> {
+    let n = norm(a);
+    a.iter().map(|x| x / n).collect()
+}
+
+/// `v` minus its component along the unit vector `base`.
+pub fn project_out(v: &[f64], base: &[f64]) -> Vec<f64> {
+    let along = dot(v, base);
+    v.iter().zip(base).map(|(x, b)| x - along * b).collect()
+}
+
+/// Euclidean distance between two vectors.
+pub fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Geodesic angle between unit vectors, written independently of the library (atan2 form).
+pub fn angle(a: &[f64], b: &[f64]) -> f64 {
+    let m: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    let p: f64 = a.iter().zip(b).map(|(x, y)| (x + y) * (x + y)).sum();
+    2.0 * m.sqrt().atan2(p.sqrt())
+}
+
+/// Largest `| |v| - 1 |` over a set of points.
+pub fn max_norm_deviation(points: &PointSet) -> f64 {
+    points
+        .iter()
+        .map(|v| (norm(v) - 1.0).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The clamped uniform knot vector on [0, 1] for `n` control points of degree `p`.
+pub fn clamped_uniform_knots(n: usize, p: usize) -> Vec<f64> {
+    let m = n - p;
+    let mut k = vec![0.0; p + 1];
+    k.extend((1..m).map(|i| i as f64 / m as f64));
+    k.extend(std::iter::repeat_n(1.0, p + 1));
+    k
+}
+
+/// A random walk of `n` unit vectors in R^dim: each step goes `step_rad` (times a factor in
+/// [0.5, 1.5]) in a random direction, so neighbours are never near antipodal.
+pub fn random_walk(rng: &mut SplitMix64, dim: usize, n: usize, step_rad: f64) -> Vec<Vec<f64>> {
+    let mut out = vec![rng.unit_vector(dim)];
+    while out.len() < n {
+        let last = out.last().unwrap().clone();
+        let len = step_rad * (0.5 + rng.uniform());
+        let v = rng.tangent(&last, len);
+        out.push(exp_map(&last, &v).unwrap());
+    }
+    out
+}
+
+/// A spline from rows of control points and a knot vector (panics on invalid input).
+pub fn spline(degree: usize, knots: Vec<f64>, control: &[Vec<f64>]) -> SphericalBSpline {
+    SphericalBSpline::try_new(degree, knots, PointSet::try_from_rows(control).unwrap()).unwrap()
+}
+
+/// Unit vector for a longitude and latitude in degrees: x = cos(lat) cos(lon),
+/// y = cos(lat) sin(lon), z = sin(lat).
+pub fn lonlat_to_unit(lon_deg: f64, lat_deg: f64) -> Vec<f64> {
+    let (lon, lat) = (lon_deg.to_radians(), lat_deg.to_radians());
+    vec![lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
+}
+
+/// Unit vector on S^2 from longitude and latitude in radians.
+pub fn sph(lon_rad: f64, lat_rad: f64) -> Vec<f64> {
+    vec![
+        lat_rad.cos() * lon_rad.cos(),
+        lat_rad.cos() * lon_rad.sin(),
+        lat_rad.sin(),
+    ]
+}

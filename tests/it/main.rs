@@ -1,0 +1,15 @@
+//! The integration tests, one binary (one link instead of one per file): each module is one
+//! area, `helpers` is what they share.
+
+mod applications;
+mod beta;
+mod cli_batch;
+mod cli_sphere;
+mod earth;
+mod helpers;
+mod http;
+mod http_openapi;
+mod http_port;
+mod paper_reproduction;
+mod sphere_properties;
+mod tolerance;
