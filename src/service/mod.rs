@@ -11,6 +11,7 @@
 //! | `POST /v1/evaluate` | `properties.fit` / `interpolation` (or a lon/lat spline) -> dense GeoJSON |
 //! | `POST /v1/sphere/fit`, `/interpolate`, `/evaluate` | the CLI's S^n JSON documents |
 //! | `GET /health`, `/openapi.yaml`, `/metrics` | liveness, contract, Prometheus text |
+//! | `GET /`, `/page/{asset}`, `/v1/limits` | the map page (`page.rs`, `web/`), its files, the limits |
 //!
 //! # Runtime
 //! CPU work runs on the blocking pool (the features of one request on rayon, in parallel),
@@ -31,6 +32,7 @@ mod body;
 pub(crate) mod error;
 mod handlers;
 pub(crate) mod metrics;
+mod page;
 pub(crate) mod query;
 
 pub(crate) use error::ApiError;
@@ -247,6 +249,7 @@ pub fn router(state: AppState) -> Router {
         .route("/health", get(handlers::health))
         .route("/openapi.yaml", get(handlers::openapi))
         .route("/metrics", get(handlers::metrics))
+        .merge(page::routes())
         .fallback(handlers::not_found)
         .layer(DefaultBodyLimit::disable())
         .layer(inner)
