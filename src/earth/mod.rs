@@ -56,6 +56,7 @@ pub use features::{
 pub use lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, unit_to_lonlat, LonLat, EARTH_RADIUS_M};
 pub use sampling::Sampling;
 
+use crate::sphere::cancel::Cancel;
 use crate::sphere::{FitOptions, SphereError};
 
 /// Highest `precision` (decimals of output degrees): 1e-15 degrees is below f64 resolution.
@@ -144,7 +145,8 @@ impl Default for OutputOptions {
     }
 }
 
-/// Everything [`process_feature`] needs: the operation, the output options and the limits.
+/// Everything [`process_feature`] needs: the operation, the output options, the limits and a
+/// cancellation token (checked before each curve and inside the fitters).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Job {
     /// What to do to each line.
@@ -153,6 +155,9 @@ pub struct Job {
     pub output: OutputOptions,
     /// Bounds checked before the work they bound.
     pub limits: Limits,
+    /// Stops the work ([`Problem::Fit`] with [`SphereError::Cancelled`]) when cancelled or past
+    /// its deadline; the default inherits the token entered on the calling thread.
+    pub cancel: Cancel,
 }
 
 impl Operation {
@@ -172,6 +177,7 @@ impl Job {
             operation: Operation::Fit(options),
             output: OutputOptions::default(),
             limits: Limits::default(),
+            cancel: Cancel::inherit(),
         }
     }
 
@@ -181,6 +187,7 @@ impl Job {
             operation: Operation::Evaluate,
             output: OutputOptions::default(),
             limits: Limits::default(),
+            cancel: Cancel::inherit(),
         }
     }
 
@@ -190,6 +197,7 @@ impl Job {
             operation: Operation::Interpolate(settings),
             output: OutputOptions::default(),
             limits: Limits::default(),
+            cancel: Cancel::inherit(),
         }
     }
 
@@ -208,6 +216,12 @@ impl Job {
     /// Sets the limits.
     pub fn with_limits(mut self, limits: Limits) -> Job {
         self.limits = limits;
+        self
+    }
+
+    /// Sets the cancellation token.
+    pub fn with_cancel(mut self, cancel: Cancel) -> Job {
+        self.cancel = cancel;
         self
     }
 
@@ -405,7 +419,7 @@ pub enum Problem {
         distinct: usize,
     },
     /// Output denser than the limit.
-    #[error("{needed} output points needed, more than the limit of {max} per line: use a larger spacing_m or fewer samples")]
+    #[error("{} output points needed, more than the limit of {max} per line: use a larger spacing_m or fewer samples", count_text(*needed))]
     TooManySamples {
         /// Output points the sampling asks for.
         needed: usize,
@@ -431,6 +445,15 @@ pub enum Problem {
     Interpolation(SphereError),
 }
 
+/// A count for a message: "more than 10^18" for counts that saturated.
+fn count_text(n: usize) -> String {
+    if n as u128 >= 1_000_000_000_000_000_000 {
+        "more than 10^18".into()
+    } else {
+        n.to_string()
+    }
+}
+
 impl Problem {
     /// A stable, machine-readable name for the kind of problem (used in problem+json `type`).
     pub fn slug(&self) -> &'static str {
@@ -444,6 +467,8 @@ impl Problem {
             Problem::TooManySamples { .. } => "too-many-samples",
             Problem::InvalidOption { .. } => "invalid-option",
             Problem::InvalidSpline(_) => "invalid-spline",
+            Problem::Fit(SphereError::Cancelled) => "cancelled",
+            Problem::Fit(SphereError::NonFinite { .. }) => "non-finite",
             Problem::Fit(_) => "unfittable",
             Problem::Interpolation(_) => "not-interpolable",
         }

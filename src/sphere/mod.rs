@@ -3,6 +3,7 @@
 //! Nothing here knows about GeoJSON, HTTP or metres; the Earth layer ([`crate::earth`]) builds
 //! on it. Every public result is a unit vector (|norm - 1| < 1e-12).
 
+pub mod cancel;
 pub mod compress;
 pub mod curve;
 pub mod fit;
@@ -185,6 +186,20 @@ pub enum SphereError {
         joint: usize,
         /// The arc's angle, radians.
         angle_rad: f64,
+    },
+    /// Every candidate of a tolerance fit had (nearly) antipodal neighbouring control points.
+    #[error("no valid spline was found: every candidate had two neighbouring control points (nearly) antipodal (the points may lie on one great circle); add points in between or use a smaller tolerance")]
+    NoValidFit,
+    /// The work ran past its time budget or was cancelled.
+    #[error("stopped: the time budget of the work ran out or it was cancelled")]
+    Cancelled,
+    /// A result that is not a finite number.
+    #[error("{what}: the result is not finite ({why})")]
+    NonFinite {
+        /// What was computed.
+        what: &'static str,
+        /// Why it overflowed or underflowed.
+        why: String,
     },
 }
 

@@ -142,6 +142,8 @@ pub struct ToleranceOptions {
     pub seed_factor: f64,
     /// Most control points per curve (default: the number of points).
     pub max_control_points: Option<usize>,
+    /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
+    pub cancel: crate::sphere::cancel::Cancel,
 }
 
 impl Default for ToleranceOptions {
@@ -156,6 +158,7 @@ impl Default for ToleranceOptions {
             adaptive_knots: false,
             seed_factor: 4.0,
             max_control_points: None,
+            cancel: crate::sphere::cancel::Cancel::inherit(),
         }
     }
 }
@@ -293,6 +296,7 @@ pub fn fit_to_tolerance(
         });
     }
     points.check_no_antipodal_neighbours()?;
+    let _scope = options.cancel.enter();
     let (base_params, free) = match params {
         Some(t) => (normalize_parameters(t, n)?, false),
         None => (
@@ -319,6 +323,7 @@ pub fn fit_to_tolerance(
     degrees.sort_unstable();
     degrees.dedup();
     for &p in &degrees {
+        options.cancel.check()?;
         let budget = found
             .iter()
             .filter(|(_, m)| m.max_error_rad <= tolerance_rad)
@@ -341,6 +346,7 @@ pub fn fit_to_tolerance(
             found.push((c, m));
         }
     }
+    options.cancel.check()?;
     let candidates: Vec<Candidate> = found
         .iter()
         .map(|(c, m)| Candidate {
@@ -364,7 +370,7 @@ pub fn fit_to_tolerance(
                 })
                 .then(ca.max_error_rad.total_cmp(&cb.max_error_rad))
         })
-        .expect("at least one degree was tried");
+        .ok_or(SphereError::NoValidFit)?;
     let (curve, metrics) = found.swap_remove(best);
     let stored = stored_numbers(&curve.spline, curve.rule);
     let input_numbers = polyline_numbers(n, points.dim());
@@ -465,7 +471,9 @@ fn fit_degree<D: Dim, G: Degree>(
                 offer(u, true, &mut out);
             }
         }
-        offer(f.into_curve(KnotRule::Stored), met, &mut out);
+        if let Some(c) = f.into_curve(KnotRule::Stored) {
+            offer(c, met, &mut out);
+        }
     }
     if free && options.uniform_knots && p >= 2 {
         // Only counts that store fewer numbers than the best curve so far can win.
@@ -510,7 +518,7 @@ fn uniform_search<D: Dim, G: Degree>(
         return None;
     }
     let mut best = Some(top);
-    while lo < hi {
+    while lo < hi && !crate::sphere::cancel::cancelled() {
         let mid = (lo + hi) / 2;
         match try_count(mid) {
             Some(f) if f.max_error() <= target => {
@@ -520,7 +528,7 @@ fn uniform_search<D: Dim, G: Degree>(
             _ => lo = mid + 1,
         }
     }
-    best.map(|f| f.into_curve(KnotRule::Uniform))
+    best.and_then(|f| f.into_curve(KnotRule::Uniform))
 }
 
 /// The working state of one degree's fit: knots, control points, data parameters and the error
@@ -690,14 +698,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         self.err.iter().fold(0.0, |a, &b| a.max(b))
     }
 
-    fn into_curve(self, rule: KnotRule) -> Curve {
-        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl)
-            .expect("the fitter keeps a valid spline");
-        Curve {
+    /// The fitted spline; `None` when it is not a valid spline (two neighbouring control
+    /// points (nearly) antipodal, as a fit along a great circle can make): that candidate is
+    /// dropped rather than returned.
+    fn into_curve(self, rule: KnotRule) -> Option<Curve> {
+        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl).ok()?;
+        Some(Curve {
             spline,
             params: self.params,
             rule,
-        }
+        })
     }
 
     fn last_span(&self) -> usize {
@@ -1013,7 +1023,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     self.err.clone(),
                 ));
             }
-            if max <= target || n >= cap {
+            if max <= target || n >= cap || crate::sphere::cancel::cancelled() {
                 break;
             }
             // Worst out-of-tolerance point per span.
@@ -1101,7 +1111,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         for _ in 0..REMOVAL_SWEEPS {
             let mut removed = 0;
             let mut r = p + 1;
-            while r < self.n_ctrl() {
+            while r < self.n_ctrl() && !crate::sphere::cancel::cancelled() {
                 if self.try_remove(r, target) {
                     removed += 1;
                 } else {
@@ -1200,7 +1210,11 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 .refit(0, n, 3 * REFIT_ITERATIONS, target)
                 .max(f.max_error());
         }
-        (max <= target).then(|| f.into_curve(KnotRule::Uniform))
+        if max <= target {
+            f.into_curve(KnotRule::Uniform)
+        } else {
+            None
+        }
     }
 }
 

@@ -283,6 +283,23 @@ fn validate_knots(p: usize, n: usize, knots: &[f64]) -> Result<(), SphereError> 
     if knots[p] >= knots[n] {
         return bad("the domain [knot p, knot n] is empty".to_string());
     }
+    // Spans that over- or underflow make the basis functions NaN: refuse them here rather
+    // than return points that are not numbers.
+    if !(knots[n] - knots[p]).is_finite() {
+        return bad(format!(
+            "the domain [knot {p}, knot {n}] is wider than the largest finite number: rescale the knots"
+        ));
+    }
+    if let Some(i) = (p..n).find(|&i| {
+        let s = knots[i + 1] - knots[i];
+        s > 0.0 && !s.is_normal()
+    }) {
+        return bad(format!(
+            "knot {}: the span from knot {i} ({:e}) is below the smallest normal number (about 2.2e-308): rescale the knots",
+            i + 1,
+            knots[i + 1] - knots[i]
+        ));
+    }
     let mut run = 1;
     for i in p + 2..n {
         run = if knots[i] == knots[i - 1] { run + 1 } else { 1 };

@@ -139,6 +139,9 @@ pub fn normalize_parameters(given: &[f64], count: usize) -> Result<Vec<f64>, Sph
     if b <= a {
         return bad("all parameters are equal: they span no interval".to_string());
     }
+    if !(b - a).is_finite() {
+        return bad("the parameters span more than the largest finite number: rescale them".into());
+    }
     let mut t: Vec<f64> = given.iter().map(|x| (x - a) / (b - a)).collect();
     let last = t.len() - 1;
     t[last] = 1.0;
