@@ -80,7 +80,7 @@ use crate::sphere::fit::knots::{
 };
 use crate::sphere::fit::metrics::{measure, ErrorMetrics};
 use crate::sphere::geometry::point::{
-    angle_from_chords, diff_sum_sq, dot, normalize, sinc, slerp, Dim, PointSet,
+    angle, angle_from_chords, diff_sum_sq, dot, exp_in_place, slerp, Dim, PointSet,
     SERIES_ANGLE_MAX_RAD,
 };
 use crate::sphere::linalg::banded::SymmetricBand;
@@ -571,12 +571,6 @@ fn eval_curve<D: Dim, G: Degree, const CONTRIB: bool>(
     k
 }
 
-#[inline(always)]
-fn angle_of<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
-    let (m2, p2) = diff_sum_sq(d, a, b);
-    angle_from_chords(m2, p2).0
-}
-
 impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     fn with_knots(
         d: D,
@@ -752,7 +746,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             &mut self.scratch,
             &mut self.c,
         );
-        angle_of(self.d, self.points.get(j), &self.c)
+        angle(self.d, self.points.get(j), &self.c)
     }
 
     /// Measures points `j0 .. j1` into `err`; returns (max, sum of squares).
@@ -1220,20 +1214,9 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
 
 /// `P ← exp_P(v)` with `v` projected onto the tangent plane at P.
 fn move_along_geodesic<D: Dim>(d: D, pt: &mut [f64], v: &[f64]) {
-    let dim = d.get();
     let along = dot(d, pt, v);
-    let mut len2 = 0.0;
-    for x in 0..dim {
-        let t = v[x] - along * pt[x];
-        len2 += t * t;
-    }
-    let len = len2.sqrt();
-    let (c, s) = (len.cos(), sinc(len));
-    for x in 0..dim {
-        let t = v[x] - along * pt[x];
-        pt[x] = c * pt[x] + s * t;
-    }
-    normalize(d, pt);
+    let t: Vec<f64> = (0..d.get()).map(|x| v[x] - along * pt[x]).collect();
+    exp_in_place(d, pt, &t);
 }
 
 #[cfg(test)]

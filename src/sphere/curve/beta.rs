@@ -396,6 +396,7 @@ pub(crate) fn build_control<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sphere::geometry::point::angle_between;
     use crate::sphere::interpolate::beta::{interpolate, InterpolationOptions};
     use approx::assert_relative_eq;
 
@@ -412,10 +413,6 @@ mod tests {
             unit([-0.7206, -0.5462, -0.4270]),
         ])
         .unwrap()
-    }
-
-    fn angle_between(a: &[f64], b: &[f64]) -> f64 {
-        crate::sphere::geometry::point::angle_between(a, b)
     }
 
     #[test]

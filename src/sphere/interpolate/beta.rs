@@ -41,8 +41,7 @@
 //! Hot loops are generic over `Dim`, so S^2 runs on `Fixed<3>`.
 
 use crate::sphere::curve::beta::{build_control, eval_joint, Fractions};
-use crate::sphere::curve::bezier::log_into;
-use crate::sphere::geometry::point::{angle, normalize, Arc, Dim, Dynamic, PointSet};
+use crate::sphere::geometry::point::{angle, log_into, normalize, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::linalg::band_lu::BandLu;
 use crate::sphere::SphereError;
 use rayon::prelude::*;
