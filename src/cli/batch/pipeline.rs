@@ -27,7 +27,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 /// Input bytes allowed in flight at once (one record always gets in). 64 MiB keeps the peak
-/// well under the 300 MB goal even when output is many times larger than input.
+/// bounded even when output is many times larger than input.
 pub const WINDOW_BYTES: usize = 64 << 20;
 
 /// Units in flight per worker thread: enough that a slow feature does not starve the pool
