@@ -141,7 +141,9 @@ pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
 /// A closed ring of unit vectors (first = last) with an altitude per vertex.
 #[derive(Clone, Debug)]
 pub struct SphereRing {
+    /// The vertices as unit vectors.
     pub points: Vec<[f64; 3]>,
+    /// The altitude of each vertex (0 where the input had none).
     pub alts: Vec<f64>,
 }
 

@@ -30,7 +30,9 @@ fn invalid(pointer: impl Into<String>, msg: impl Into<String>) -> EarthError {
 pub enum Source {
     /// A Feature (a bare geometry is wrapped in one), with the pointer of its geometry.
     Feature {
+        /// The Feature.
         feature: Value,
+        /// JSON pointer of its geometry in the input.
         geometry_pointer: String,
     },
     /// A bare lon/lat spline document (evaluation only).
@@ -42,6 +44,7 @@ pub enum Source {
 pub struct FeatureSlot {
     /// JSON pointer of the feature in the input (`/features/3`, or "" for a lone Feature).
     pub pointer: String,
+    /// What the slot holds.
     pub source: Source,
 }
 
@@ -74,7 +77,9 @@ impl FeatureStats {
 /// An output Feature and its counters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProcessedFeature {
+    /// The output Feature.
     pub feature: Value,
+    /// What was done to it.
     pub stats: FeatureStats,
 }
 

@@ -116,7 +116,9 @@ pub enum Operation {
     /// gives the starting parameters; `control_points`, `knots`, `iterations` and `solver` are
     /// not used.
     FitToTolerance {
+        /// Degree cap and starting parameterisation.
         options: FitOptions,
+        /// Largest allowed distance from a position to the curve, metres.
         tolerance_m: f64,
     },
     /// Interpolate every vertex with a spherical Beta-spline.
@@ -147,8 +149,11 @@ impl Default for OutputOptions {
 /// cancellation token (checked before each curve and inside the fitters).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Job {
+    /// What to do to each line.
     pub operation: Operation,
+    /// How output lines are made.
     pub output: OutputOptions,
+    /// Bounds checked before the work they bound.
     pub limits: Limits,
     /// Stops the work ([`Problem::Fit`] with [`SphereError::Cancelled`]) when cancelled or past
     /// its deadline; the default inherits the token entered on the calling thread.
@@ -377,6 +382,7 @@ impl EarthError {
 /// What can be wrong with a GeoJSON input or the options for it. [`Problem::slug`] names each
 /// kind in a stable, machine-readable way.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum Problem {
     /// Not the GeoJSON structure expected (missing or unknown `type`, coordinates not arrays).
     #[error("{0}")]
@@ -391,24 +397,41 @@ pub enum Problem {
     #[error(
         "{distinct} distinct position(s) after dropping repeats: a curve needs at least {need}"
     )]
-    TooFewPoints { distinct: usize, need: usize },
+    TooFewPoints {
+        /// Distinct positions in the line.
+        distinct: usize,
+        /// Positions the curve needs.
+        need: usize,
+    },
     /// Two consecutive positions are (nearly) antipodal: the great circle between them is
     /// undefined.
     #[error("this position and the previous one are (nearly) antipodal ({angle_deg} degrees apart): the great circle between them is undefined; add a position in between")]
-    Antipodal { angle_deg: f64 },
+    Antipodal {
+        /// Their distance, degrees of arc.
+        angle_deg: f64,
+    },
     /// More control points than distinct positions.
     #[error("{control_points} control points for a line with {distinct} distinct position(s): use at most as many control points as positions")]
     TooManyControlPoints {
+        /// Control points asked for.
         control_points: usize,
+        /// Distinct positions in the line.
         distinct: usize,
     },
     /// Output denser than the limit.
     #[error("{} output points needed, more than the limit of {max} per line: use a larger spacing_m or fewer samples", count_text(*needed))]
-    TooManySamples { needed: usize, max: usize },
+    TooManySamples {
+        /// Output points the sampling asks for.
+        needed: usize,
+        /// The limit per line.
+        max: usize,
+    },
     /// An option out of range or not allowed.
     #[error("{option}: {message}")]
     InvalidOption {
+        /// The option's name.
         option: &'static str,
+        /// Why it is not allowed.
         message: String,
     },
     /// A spline document (for `evaluate`) that does not describe a valid spline.

@@ -2,7 +2,7 @@
 //!
 //! [`router`] builds everything (routes and layers); `main` and the tests both call it. The
 //! contract is `openapi.yaml` (served at `/openapi.yaml`); errors are RFC 9457 problem+json
-//! ([`error`]).
+//! (`error.rs`).
 //!
 //! | route | what |
 //! |---|---|
@@ -11,6 +11,7 @@
 //! | `POST /v1/evaluate` | `properties.fit` / `interpolation` (or a lon/lat spline) -> dense GeoJSON |
 //! | `POST /v1/sphere/fit`, `/interpolate`, `/evaluate` | the CLI's S^n JSON documents |
 //! | `GET /health`, `/openapi.yaml`, `/metrics` | liveness, contract, Prometheus text |
+//! | `GET /`, `/page/{asset}`, `/v1/limits` | the map page (`page.rs`, `web/`), its files, the limits |
 //!
 //! # Runtime
 //! CPU work runs on the blocking pool (the features of one request on rayon, in parallel),
@@ -28,12 +29,13 @@
 //! the 413 is sent, so that clients that write the whole body before reading see it.
 
 mod body;
-pub mod error;
+pub(crate) mod error;
 mod handlers;
-pub mod metrics;
-pub mod query;
+pub(crate) mod metrics;
+mod page;
+pub(crate) mod query;
 
-pub use error::ApiError;
+pub(crate) use error::ApiError;
 
 use crate::earth::Limits;
 use axum::error_handling::HandleErrorLayer;
@@ -110,8 +112,8 @@ impl Default for ServiceConfig {
 /// Shared state of the handlers.
 #[derive(Clone, Debug)]
 pub struct AppState {
-    pub config: Arc<ServiceConfig>,
-    pub metrics: Arc<Metrics>,
+    pub(crate) config: Arc<ServiceConfig>,
+    pub(crate) metrics: Arc<Metrics>,
     gate: Arc<FitGate>,
     /// Bytes of bodies in flight (one permit a byte).
     pub(crate) body_bytes: Arc<Semaphore>,
@@ -247,6 +249,7 @@ pub fn router(state: AppState) -> Router {
         .route("/health", get(handlers::health))
         .route("/openapi.yaml", get(handlers::openapi))
         .route("/metrics", get(handlers::metrics))
+        .merge(page::routes())
         .fallback(handlers::not_found)
         .layer(DefaultBodyLimit::disable())
         .layer(inner)

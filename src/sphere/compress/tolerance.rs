@@ -73,7 +73,7 @@
 
 use super::simplify::douglas_peucker;
 use crate::sphere::curve::bspline::{
-    with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
+    clamped_uniform_knots, with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
 };
 use crate::sphere::fit::knots::{
     greville_control_points, normalize_parameters, parameters, Parameterization,
@@ -101,11 +101,17 @@ pub enum KnotRule {
 /// One curve tried while fitting to a tolerance (one per degree and knot strategy).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
+    /// Spline degree.
     pub degree: usize,
+    /// How its knots were placed.
     pub knot_rule: KnotRule,
+    /// Control points of the smallest curve found.
     pub control_points: usize,
+    /// Numbers that curve stores ([`stored_numbers`]).
     pub stored_numbers: usize,
+    /// Its largest distance to a point, radians.
     pub max_error_rad: f64,
+    /// Whether every point is within the tolerance.
     pub tolerance_met: bool,
 }
 
@@ -497,7 +503,7 @@ fn uniform_search<D: Dim, G: Degree>(
         return None;
     }
     let try_count = |n_ctrl: usize| -> Option<Fitter<D, G>> {
-        let knots = uniform_knots(n_ctrl, p);
+        let knots = clamped_uniform_knots(n_ctrl, p);
         let mut f = Fitter::with_knots(d, g, points, base_params.to_vec(), true, knots)?;
         f.correct_all(4);
         f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0);
@@ -523,14 +529,6 @@ fn uniform_search<D: Dim, G: Degree>(
         }
     }
     best.and_then(|f| f.into_curve(KnotRule::Uniform))
-}
-
-fn uniform_knots(n_ctrl: usize, p: usize) -> Vec<f64> {
-    let m = n_ctrl - p;
-    let mut k = vec![0.0; p + 1];
-    k.extend((1..m).map(|i| i as f64 / m as f64));
-    k.extend(std::iter::repeat_n(1.0, p + 1));
-    k
 }
 
 /// The working state of one degree's fit: knots, control points, data parameters and the error
@@ -645,7 +643,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 points,
                 base_params.to_vec(),
                 free,
-                uniform_knots(cap, p),
+                clamped_uniform_knots(cap, p),
             )?;
             if free {
                 f.correct_all(4);
@@ -1177,7 +1175,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     fn to_uniform(&self, target: f64) -> Option<Curve> {
         let p = self.p();
         let n = self.n_ctrl();
-        let knots = uniform_knots(n, p);
+        let knots = clamped_uniform_knots(n, p);
         let last = self.last_span();
         let params: Vec<f64> = self
             .params
@@ -1265,7 +1263,7 @@ mod tests {
     #[test]
     fn stored_numbers_count_control_points_knots_and_the_degree() {
         let pts = wave(50, 0.01, 3);
-        let knots = uniform_knots(6, 3);
+        let knots = clamped_uniform_knots(6, 3);
         let ctrl = greville_control_points(
             &pts,
             &parameters(&pts, Parameterization::Chord).unwrap(),

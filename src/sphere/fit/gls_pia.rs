@@ -181,7 +181,9 @@ pub fn default_control_points(n: usize, p: usize) -> usize {
 /// Max and mean error of one iteration's curve (index 0 of a history is the initial curve).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IterationError {
+    /// Largest geodesic error, radians.
     pub max_error_rad: f64,
+    /// Mean geodesic error, radians.
     pub mean_error_rad: f64,
 }
 

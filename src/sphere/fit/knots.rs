@@ -10,6 +10,7 @@
 //! * Initial control points: the data polyline (SLERP between neighbours) at the Greville
 //!   abscissae of the knots (§4.3).
 
+use crate::sphere::curve::bspline::clamped_uniform_knots;
 use crate::sphere::geometry::point::{dot, normalize, slerp, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};
@@ -181,8 +182,7 @@ pub fn place_knots(
 }
 
 fn uniform_interior(n_ctrl: usize, p: usize) -> Vec<f64> {
-    let m = n_ctrl - p;
-    (1..m).map(|i| i as f64 / m as f64).collect()
+    clamped_uniform_knots(n_ctrl, p)[p + 1..n_ctrl].to_vec()
 }
 
 /// Clamped knots around `interior` (values in (0, 1)), spread so that no two are closer than

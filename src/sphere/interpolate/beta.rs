@@ -38,7 +38,7 @@
 //!   is met only by a correction growing geometrically along the curve, and interpolation of
 //!   more than a few dozen points fails. Use beta1 to shape a few joints, not as a global bias.
 //!
-//! Hot loops are generic over [`Dim`], so S^2 runs on `Fixed<3>`.
+//! Hot loops are generic over `Dim`, so S^2 runs on `Fixed<3>`.
 
 use crate::sphere::curve::beta::{build_control, eval_joint, Fractions};
 use crate::sphere::curve::bezier::log_into;
