@@ -889,7 +889,10 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let mut lambda = 0.0;
         let mut saved = vec![0.0; nf * dim];
         for it in 0..iterations {
-            if max <= target || (it >= GIVE_UP_AFTER && max > give_up * target) {
+            if max <= target
+                || (it >= GIVE_UP_AFTER && max > give_up * target)
+                || crate::sphere::cancel::cancelled()
+            {
                 break;
             }
             let mut band = SymmetricBand::zeros(nf, p);
