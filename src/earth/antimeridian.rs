@@ -77,6 +77,16 @@ pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
     let mut current: Vec<Position> = Vec::with_capacity(points.len());
     // Sign of y of the current piece (0 until a point off the plane y = 0 is seen).
     let mut piece_side: i8 = 0;
+    // Side of the first point off the plane after each index (1 when there is none), from one
+    // backward pass: a curve that runs along the antimeridian stays linear in time.
+    let mut next_side = vec![1i8; points.len()];
+    let mut s = 1;
+    for i in (0..points.len()).rev() {
+        next_side[i] = s;
+        if side(points[i][1]) != 0 {
+            s = side(points[i][1]);
+        }
+    }
     for i in 0..points.len() {
         let b = &points[i];
         let sb = side(b[1]);
@@ -116,11 +126,7 @@ pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
             let s = if piece_side != 0 {
                 piece_side
             } else {
-                points[i + 1..]
-                    .iter()
-                    .map(|p| side(p[1]))
-                    .find(|&s| s != 0)
-                    .unwrap_or(1)
+                next_side[i]
             };
             lon = 180.0 * f64::from(s);
         }
@@ -135,7 +141,9 @@ pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
 /// A closed ring of unit vectors (first = last) with an altitude per vertex.
 #[derive(Clone, Debug)]
 pub struct SphereRing {
+    /// The vertices as unit vectors.
     pub points: Vec<[f64; 3]>,
+    /// The altitude of each vertex (0 where the input had none).
     pub alts: Vec<f64>,
 }
 

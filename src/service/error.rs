@@ -245,6 +245,11 @@ impl From<EarthError> for ApiError {
             Problem::InvalidOption { option, .. } => {
                 ApiError::unprocessable(slug, detail).param(option)
             }
+            // Only spacing_m can ask for more points than the limit once the options passed
+            // validation; the pointer says which line.
+            Problem::TooManySamples { .. } => ApiError::unprocessable(slug, detail)
+                .at(e.pointer)
+                .param("spacing_m"),
             _ => ApiError::unprocessable(slug, detail).at(e.pointer),
         }
     }

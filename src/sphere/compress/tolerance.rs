@@ -73,7 +73,7 @@
 
 use super::simplify::douglas_peucker;
 use crate::sphere::curve::bspline::{
-    with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
+    clamped_uniform_knots, with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
 };
 use crate::sphere::fit::knots::{
     greville_control_points, normalize_parameters, parameters, Parameterization,
@@ -101,11 +101,17 @@ pub enum KnotRule {
 /// One curve tried while fitting to a tolerance (one per degree and knot strategy).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
+    /// Spline degree.
     pub degree: usize,
+    /// How its knots were placed.
     pub knot_rule: KnotRule,
+    /// Control points of the smallest curve found.
     pub control_points: usize,
+    /// Numbers that curve stores ([`stored_numbers`]).
     pub stored_numbers: usize,
+    /// Its largest distance to a point, radians.
     pub max_error_rad: f64,
+    /// Whether every point is within the tolerance.
     pub tolerance_met: bool,
 }
 
@@ -136,6 +142,8 @@ pub struct ToleranceOptions {
     pub seed_factor: f64,
     /// Most control points per curve (default: the number of points).
     pub max_control_points: Option<usize>,
+    /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
+    pub cancel: crate::sphere::cancel::Cancel,
 }
 
 impl Default for ToleranceOptions {
@@ -150,6 +158,7 @@ impl Default for ToleranceOptions {
             adaptive_knots: false,
             seed_factor: 4.0,
             max_control_points: None,
+            cancel: crate::sphere::cancel::Cancel::inherit(),
         }
     }
 }
@@ -287,6 +296,7 @@ pub fn fit_to_tolerance(
         });
     }
     points.check_no_antipodal_neighbours()?;
+    let _scope = options.cancel.enter();
     let (base_params, free) = match params {
         Some(t) => (normalize_parameters(t, n)?, false),
         None => (
@@ -313,6 +323,7 @@ pub fn fit_to_tolerance(
     degrees.sort_unstable();
     degrees.dedup();
     for &p in &degrees {
+        options.cancel.check()?;
         let budget = found
             .iter()
             .filter(|(_, m)| m.max_error_rad <= tolerance_rad)
@@ -335,6 +346,7 @@ pub fn fit_to_tolerance(
             found.push((c, m));
         }
     }
+    options.cancel.check()?;
     let candidates: Vec<Candidate> = found
         .iter()
         .map(|(c, m)| Candidate {
@@ -358,7 +370,7 @@ pub fn fit_to_tolerance(
                 })
                 .then(ca.max_error_rad.total_cmp(&cb.max_error_rad))
         })
-        .expect("at least one degree was tried");
+        .ok_or(SphereError::NoValidFit)?;
     let (curve, metrics) = found.swap_remove(best);
     let stored = stored_numbers(&curve.spline, curve.rule);
     let input_numbers = polyline_numbers(n, points.dim());
@@ -459,7 +471,9 @@ fn fit_degree<D: Dim, G: Degree>(
                 offer(u, true, &mut out);
             }
         }
-        offer(f.into_curve(KnotRule::Stored), met, &mut out);
+        if let Some(c) = f.into_curve(KnotRule::Stored) {
+            offer(c, met, &mut out);
+        }
     }
     if free && options.uniform_knots && p >= 2 {
         // Only counts that store fewer numbers than the best curve so far can win.
@@ -489,7 +503,7 @@ fn uniform_search<D: Dim, G: Degree>(
         return None;
     }
     let try_count = |n_ctrl: usize| -> Option<Fitter<D, G>> {
-        let knots = uniform_knots(n_ctrl, p);
+        let knots = clamped_uniform_knots(n_ctrl, p);
         let mut f = Fitter::with_knots(d, g, points, base_params.to_vec(), true, knots)?;
         f.correct_all(4);
         f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0);
@@ -504,7 +518,7 @@ fn uniform_search<D: Dim, G: Degree>(
         return None;
     }
     let mut best = Some(top);
-    while lo < hi {
+    while lo < hi && !crate::sphere::cancel::cancelled() {
         let mid = (lo + hi) / 2;
         match try_count(mid) {
             Some(f) if f.max_error() <= target => {
@@ -514,15 +528,7 @@ fn uniform_search<D: Dim, G: Degree>(
             _ => lo = mid + 1,
         }
     }
-    best.map(|f| f.into_curve(KnotRule::Uniform))
-}
-
-fn uniform_knots(n_ctrl: usize, p: usize) -> Vec<f64> {
-    let m = n_ctrl - p;
-    let mut k = vec![0.0; p + 1];
-    k.extend((1..m).map(|i| i as f64 / m as f64));
-    k.extend(std::iter::repeat_n(1.0, p + 1));
-    k
+    best.and_then(|f| f.into_curve(KnotRule::Uniform))
 }
 
 /// The working state of one degree's fit: knots, control points, data parameters and the error
@@ -637,7 +643,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 points,
                 base_params.to_vec(),
                 free,
-                uniform_knots(cap, p),
+                clamped_uniform_knots(cap, p),
             )?;
             if free {
                 f.correct_all(4);
@@ -692,14 +698,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         self.err.iter().fold(0.0, |a, &b| a.max(b))
     }
 
-    fn into_curve(self, rule: KnotRule) -> Curve {
-        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl)
-            .expect("the fitter keeps a valid spline");
-        Curve {
+    /// The fitted spline; `None` when it is not a valid spline (two neighbouring control
+    /// points (nearly) antipodal, as a fit along a great circle can make): that candidate is
+    /// dropped rather than returned.
+    fn into_curve(self, rule: KnotRule) -> Option<Curve> {
+        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl).ok()?;
+        Some(Curve {
             spline,
             params: self.params,
             rule,
-        }
+        })
     }
 
     fn last_span(&self) -> usize {
@@ -1015,7 +1023,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     self.err.clone(),
                 ));
             }
-            if max <= target || n >= cap {
+            if max <= target || n >= cap || crate::sphere::cancel::cancelled() {
                 break;
             }
             // Worst out-of-tolerance point per span.
@@ -1103,7 +1111,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         for _ in 0..REMOVAL_SWEEPS {
             let mut removed = 0;
             let mut r = p + 1;
-            while r < self.n_ctrl() {
+            while r < self.n_ctrl() && !crate::sphere::cancel::cancelled() {
                 if self.try_remove(r, target) {
                     removed += 1;
                 } else {
@@ -1164,7 +1172,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     fn to_uniform(&self, target: f64) -> Option<Curve> {
         let p = self.p();
         let n = self.n_ctrl();
-        let knots = uniform_knots(n, p);
+        let knots = clamped_uniform_knots(n, p);
         let last = self.last_span();
         let params: Vec<f64> = self
             .params
@@ -1202,7 +1210,11 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 .refit(0, n, 3 * REFIT_ITERATIONS, target)
                 .max(f.max_error());
         }
-        (max <= target).then(|| f.into_curve(KnotRule::Uniform))
+        if max <= target {
+            f.into_curve(KnotRule::Uniform)
+        } else {
+            None
+        }
     }
 }
 
@@ -1248,7 +1260,7 @@ mod tests {
     #[test]
     fn stored_numbers_count_control_points_knots_and_the_degree() {
         let pts = wave(50, 0.01, 3);
-        let knots = uniform_knots(6, 3);
+        let knots = clamped_uniform_knots(6, 3);
         let ctrl = greville_control_points(
             &pts,
             &parameters(&pts, Parameterization::Chord).unwrap(),

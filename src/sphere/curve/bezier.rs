@@ -6,7 +6,7 @@
 //! `q_n`, and its end velocities are `n` times those of the first and last control arcs
 //! (the paper's Lemma 2): this is what makes the Beta-spline's joints G1.
 //!
-//! The kernel (`de_casteljau`) is generic over [`Dim`], so the Beta-spline's S^2 path runs on
+//! The kernel (`de_casteljau`) is generic over `Dim`, so the Beta-spline's S^2 path runs on
 //! `Fixed<3>` while S^14 uses the same code with a runtime length.
 
 use super::SphericalCurve;

@@ -61,7 +61,7 @@ pub(crate) fn gauss_newton(
     let mut iterations = 0;
     let mut converged = false;
     let mut lambda = 0.0;
-    while iterations < options.iterations {
+    while iterations < options.iterations && !options.cancel.is_cancelled() {
         if m.max_error_rad == 0.0
             || options
                 .target_max_error_rad
