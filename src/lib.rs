@@ -9,7 +9,7 @@
 //!   [`SphericalCurve`](sphere::SphericalCurve) trait), [`mod@sphere::fit`] (parameters and
 //!   knots, GLS-PIA, `Solver::GaussNewton`, geodesic error metrics), [`mod@sphere::interpolate`]
 //!   (Beta-spline interpolation), [`sphere::compress`] (fitting to a tolerance, spherical
-//!   Douglas–Peucker) and [`sphere::linalg`] (banded Cholesky).
+//!   Douglas–Peucker) and `sphere::linalg` (band matrix solvers, internal).
 //! * [`document`]: the S^n JSON documents (points in, splines and fit results out) shared by the
 //!   CLI and the service.
 //! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out.
@@ -34,8 +34,12 @@
 //! assert_eq!(dense.len(), 500);
 //! ```
 
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod document;
 pub mod earth;
+#[cfg(feature = "service")]
 pub mod service;
 pub mod sphere;
+
+pub(crate) use sphere::geometry::point::with_dim;

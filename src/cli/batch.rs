@@ -330,6 +330,7 @@ fn job(operation: Operation, limits: Limits, output: &OutputArgs) -> Result<Job,
             max_samples: output.max_samples,
             ..limits
         },
+        cancel: Default::default(),
     };
     job.validate().map_err(|e| match e.problem {
         Problem::InvalidOption { option, message } => Failure::input(format!(

@@ -43,6 +43,20 @@ pub(crate) struct ServeArgs {
     /// Requests of any kind in flight at once; past that, 503 with Retry-After
     #[arg(long, env = "SPHEREFIT_MAX_IN_FLIGHT", default_value_t = 1024)]
     max_in_flight: usize,
+    /// Time for a whole request body to arrive, in seconds (at most --timeout-s); past it, 408
+    #[arg(long, env = "SPHEREFIT_BODY_TIMEOUT_S", default_value_t = 10.0)]
+    body_timeout_s: f64,
+    /// Bytes of request bodies held at once by all requests; a body waits for room (503 when
+    /// none frees up within its body timeout)
+    #[arg(long, env = "SPHEREFIT_MAX_BODY_BYTES_IN_FLIGHT", default_value_t = 128 * 1024 * 1024)]
+    max_body_bytes_in_flight: usize,
+    /// Time for a request header to arrive, in seconds; also how long an idle keep-alive
+    /// connection stays open
+    #[arg(long, env = "SPHEREFIT_HEADER_TIMEOUT_S", default_value_t = 10.0)]
+    header_timeout_s: f64,
+    /// Open connections at once; past that, new connections get 503 and are closed
+    #[arg(long, env = "SPHEREFIT_MAX_CONNECTIONS", default_value_t = 1024)]
+    max_connections: usize,
     /// Log format on stderr: auto (text on a terminal, JSON otherwise), text or json.
     /// The level comes from RUST_LOG (default info)
     #[arg(long, env = "SPHEREFIT_LOG_FORMAT", value_enum, default_value_t = LogFormat::Auto)]
@@ -62,8 +76,11 @@ enum LogFormat {
 
 impl ServeArgs {
     fn config(&self) -> Result<ServiceConfig, Failure> {
-        if !(self.timeout_s.is_finite() && self.timeout_s > 0.0) {
-            return Err(Failure::input("--timeout-s must be a positive number"));
+        let request_timeout = seconds("--timeout-s", self.timeout_s)?;
+        let body_timeout = seconds("--body-timeout-s", self.body_timeout_s)?.min(request_timeout);
+        let header_timeout = seconds("--header-timeout-s", self.header_timeout_s)?;
+        if let Some(s) = self.exit_after_s {
+            seconds("--exit-after-s", s)?;
         }
         let d = ServiceConfig::default();
         Ok(ServiceConfig {
@@ -75,12 +92,34 @@ impl ServeArgs {
                 max_samples: self.max_samples,
                 max_iterations: self.max_iterations,
             },
-            request_timeout: Duration::from_secs_f64(self.timeout_s),
+            request_timeout,
             fit_concurrency: self.fit_concurrency.unwrap_or(d.fit_concurrency).max(1),
             fit_queue: self.fit_queue,
             max_in_flight: self.max_in_flight.max(1),
+            body_timeout,
+            max_body_bytes_in_flight: self.max_body_bytes_in_flight,
+            header_timeout,
+            max_connections: self.max_connections.max(1),
         })
     }
+}
+
+/// Longest duration a flag takes: a year (longer is surely a typo, and would overflow timers).
+const MAX_SECONDS: f64 = 366.0 * 86_400.0;
+
+/// A positive, finite number of seconds up to [`MAX_SECONDS`].
+fn seconds(flag: &str, s: f64) -> Result<Duration, Failure> {
+    if !(s.is_finite() && s > 0.0 && s <= MAX_SECONDS) {
+        return Err(Failure::input(format!(
+            "{flag} {}: give a number of seconds greater than 0 and at most {MAX_SECONDS}",
+            if s.abs() >= 1e9 {
+                format!("{s:e}")
+            } else {
+                s.to_string()
+            }
+        )));
+    }
+    Ok(Duration::from_secs_f64(s))
 }
 
 fn init_logging(format: LogFormat) {
@@ -111,7 +150,7 @@ pub(crate) fn run(args: ServeArgs) -> Result<(), Failure> {
         .build()
         .map_err(|e| Failure::input(format!("cannot start the async runtime: {e}")))?;
     let exit_after = args.exit_after_s.map(Duration::from_secs_f64);
-    runtime.block_on(async move {
+    let result = runtime.block_on(async move {
         let listener = tokio::net::TcpListener::bind(args.addr)
             .await
             .map_err(|e| Failure::input(format!("cannot listen on {}: {e}", args.addr)))?;
@@ -141,5 +180,8 @@ pub(crate) fn run(args: ServeArgs) -> Result<(), Failure> {
             .map_err(|e| Failure::input(format!("server error: {e}")))?;
         tracing::info!("stopped");
         Ok(())
-    })
+    });
+    // Work abandoned past its budget stops at its next cancellation check; do not wait for it.
+    runtime.shutdown_timeout(Duration::from_millis(500));
+    result
 }

@@ -292,6 +292,7 @@ pub fn curve_from_json(v: &Value) -> Result<AnyCurve, InputError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sphere::geometry::point::angle_between;
     use crate::sphere::interpolate::beta::{interpolate, InterpolationOptions};
 
     fn unit(v: [f64; 3]) -> Vec<f64> {
@@ -319,10 +320,6 @@ mod tests {
             unit([0.0, 1.0, 0.0]),
         ])
         .unwrap()
-    }
-
-    fn angle_between(a: &[f64], b: &[f64]) -> f64 {
-        crate::sphere::geometry::point::angle_between(a, b)
     }
 
     #[test]

@@ -192,10 +192,15 @@ pub fn number_list(v: &Value, base: &str) -> Result<Vec<f64>, InputError> {
 /// Errors of a fit as reported in documents.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitMetricsDocument {
+    /// Largest geodesic error at the data parameters, radians.
     pub max_error_rad: f64,
+    /// Mean geodesic error, radians.
     pub mean_error_rad: f64,
+    /// Root-mean-square geodesic error, radians.
     pub rms_error_rad: f64,
+    /// Iterations run.
     pub iterations: usize,
+    /// Whether the fit stopped by its own criterion rather than the iteration limit.
     pub converged: bool,
 }
 
@@ -203,9 +208,13 @@ pub struct FitMetricsDocument {
 /// per-iteration history.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitDocument {
+    /// The fitted spline.
     pub spline: SplineDocument,
+    /// The data parameter of each point, in the spline's domain.
     pub parameters: Vec<f64>,
+    /// Errors of the returned spline.
     pub metrics: FitMetricsDocument,
+    /// Errors per iteration (index 0: the initial curve).
     pub history: Vec<IterationError>,
 }
 
@@ -229,7 +238,9 @@ impl From<&FitReport> for FitDocument {
 /// Points sampled from a curve: `{"parameters": [...], "points": [[...], ...]}`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SamplesDocument {
+    /// The parameters sampled.
     pub parameters: Vec<f64>,
+    /// The curve's point (a unit vector) at each parameter.
     pub points: Vec<Vec<f64>>,
 }
 

@@ -21,6 +21,7 @@
 //! ignored by callers that have none.
 
 use super::lonlat::unit_to_lonlat;
+use crate::sphere::geometry::point::angle_between;
 use geo::{BooleanOps, Coord, LineString, MultiPolygon, Polygon, Rect};
 
 /// A position `[lon_deg, lat_deg, altitude]` (the altitude is meaningless when the data have
@@ -46,19 +47,15 @@ fn normalize3(v: [f64; 3]) -> [f64; 3] {
     }
 }
 
-fn angle3(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    crate::sphere::point::angle_between(a, b)
-}
-
 /// Where the great-circle segment `a -> b` meets the plane `y = 0`, for `a.y` and `b.y` of
 /// opposite signs, and the fraction of the segment's length at which it does.
 fn y_crossing(a: &[f64; 3], b: &[f64; 3]) -> ([f64; 3], f64) {
     let (wa, wb) = (b[1].abs(), a[1].abs());
     let mut c = normalize3([wa * a[0] + wb * b[0], 0.0, wa * a[2] + wb * b[2]]);
     c[1] = 0.0;
-    let total = angle3(a, b);
+    let total = angle_between(a, b);
     let f = if total > 0.0 {
-        (angle3(a, &c) / total).clamp(0.0, 1.0)
+        (angle_between(a, &c) / total).clamp(0.0, 1.0)
     } else {
         0.0
     };
@@ -77,6 +74,16 @@ pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
     let mut current: Vec<Position> = Vec::with_capacity(points.len());
     // Sign of y of the current piece (0 until a point off the plane y = 0 is seen).
     let mut piece_side: i8 = 0;
+    // Side of the first point off the plane after each index (1 when there is none), from one
+    // backward pass: a curve that runs along the antimeridian stays linear in time.
+    let mut next_side = vec![1i8; points.len()];
+    let mut s = 1;
+    for i in (0..points.len()).rev() {
+        next_side[i] = s;
+        if side(points[i][1]) != 0 {
+            s = side(points[i][1]);
+        }
+    }
     for i in 0..points.len() {
         let b = &points[i];
         let sb = side(b[1]);
@@ -116,11 +123,7 @@ pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
             let s = if piece_side != 0 {
                 piece_side
             } else {
-                points[i + 1..]
-                    .iter()
-                    .map(|p| side(p[1]))
-                    .find(|&s| s != 0)
-                    .unwrap_or(1)
+                next_side[i]
             };
             lon = 180.0 * f64::from(s);
         }
@@ -135,7 +138,9 @@ pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
 /// A closed ring of unit vectors (first = last) with an altitude per vertex.
 #[derive(Clone, Debug)]
 pub struct SphereRing {
+    /// The vertices as unit vectors.
     pub points: Vec<[f64; 3]>,
+    /// The altitude of each vertex (0 where the input had none).
     pub alts: Vec<f64>,
 }
 

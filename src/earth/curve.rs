@@ -15,12 +15,11 @@ use crate::sphere::fit::default_control_points;
 use crate::sphere::metrics::{measure, pointwise_errors};
 use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
 use crate::sphere::tolerance::{
-    fit_to_tolerance, stored_numbers, ToleranceOptions, MAX_LENGTH_RATIO,
+    fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions, MAX_LENGTH_RATIO,
 };
 use crate::sphere::two_way::{polyline_length, two_way_distance, TwoWayOptions};
-use crate::sphere::{
-    fit, gls_pia_iteration, FitOptions, PointSet, SphereError, SphericalBSpline, SphericalCurve,
-};
+use crate::sphere::AnyCurve;
+use crate::sphere::{fit, gls_pia_iteration, FitOptions, PointSet, SphereError, SphericalBSpline};
 use serde_json::{json, Map, Value};
 
 /// Consecutive positions closer than this (radians; 0.6 mm on the Earth) are repeats: far below
@@ -43,7 +42,9 @@ fn round_m(x: f64) -> f64 {
 /// The positions of one line as unit vectors, with altitudes when every position has one.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LinePositions {
+    /// The positions as unit vectors.
     pub points: Vec<[f64; 3]>,
+    /// One altitude per position, when every position has one.
     pub alts: Option<Vec<f64>>,
 }
 
@@ -255,6 +256,7 @@ pub struct CurveReport {
     pub max_error_m: f64,
     /// Sum of errors and of squared errors (metres), for pooled means.
     pub error_sum_m: f64,
+    /// Sum of squared errors, square metres.
     pub error_sq_sum_m2: f64,
 }
 
@@ -263,9 +265,13 @@ pub struct CurveReport {
 pub struct CurveOutput {
     /// Where the curve's coordinates (or document) sit in the input.
     pub pointer: String,
+    /// The dense curve as unit vectors.
     pub points: Vec<[f64; 3]>,
+    /// The altitude of each dense point (0 without altitudes).
     pub alts: Vec<f64>,
+    /// Whether the input had altitudes, so the output positions carry a third value.
     pub has_alt: bool,
+    /// What was done and how well.
     pub report: CurveReport,
 }
 
@@ -456,7 +462,7 @@ fn finish_fit(
                 fields,
                 input_points: n_in,
                 output_points: points_out.len(),
-                stored_numbers: 2 * control_points + spline.knots().len() + 1,
+                stored_numbers: bspline_stored_numbers(&spline),
                 max_error_m: rad_to_m(max_rad),
                 error_sum_m: rad_to_m(sum_rad),
                 error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
@@ -620,6 +626,17 @@ const REPORT_TWO_WAY_PRECISION: f64 = 0.01;
 /// Metres rounded up to millimetres: for bounds, which must not shrink in print.
 fn round_up_m(x: f64) -> f64 {
     (x * 1000.0).ceil() / 1000.0
+}
+
+/// Numbers a B-spline stores ([`stored_numbers`]), its knots counted unless they are the clamped
+/// uniform ones, which need no storing: the same count whichever path made the spline.
+fn bspline_stored_numbers(spline: &SphericalBSpline) -> usize {
+    let rule = if spline.has_clamped_uniform_knots() {
+        KnotRule::Uniform
+    } else {
+        KnotRule::Stored
+    };
+    stored_numbers(spline, rule)
 }
 
 /// `2 × input positions / stored numbers`, to 3 decimals.
@@ -881,7 +898,7 @@ pub fn interpolate_line(
             fields,
             input_points: n_in,
             output_points: points_out.len(),
-            stored_numbers: 2 * (3 * segments + 1) + 2 * (segments + 1),
+            stored_numbers: curve.stored_numbers(),
             max_error_m: rad_to_m(max_rad),
             error_sum_m: rad_to_m(sum_rad),
             error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
@@ -925,27 +942,13 @@ fn round_beta(
     Ok((spline, json_doc))
 }
 
-/// A curve read from a lon/lat document: a B-spline `{"degree", "knots", "control_points":
-/// [[lon, lat], ...]}` or a Beta-spline `{"type": "beta", "beta1", "beta2", "segments"}`.
-pub enum LonLatCurve {
-    BSpline(SphericalBSpline),
-    Beta(SphericalBetaSpline),
-}
-
-impl LonLatCurve {
-    fn as_curve(&self) -> &dyn SphericalCurve {
-        match self {
-            LonLatCurve::BSpline(s) => s,
-            LonLatCurve::Beta(s) => s,
-        }
-    }
-}
-
-/// Reads a lon/lat curve document at `pointer`. `"crs"`, when present, must be `"lonlat"`.
+/// Reads a lon/lat curve document at `pointer`: a B-spline `{"degree", "knots",
+/// "control_points": [[lon, lat], ...]}` or a Beta-spline `{"type": "beta", "beta1", "beta2",
+/// "segments"}`. `"crs"`, when present, must be `"lonlat"`.
 ///
 /// # Errors
 /// [`Problem::InvalidSpline`] or [`Problem::InvalidCoordinate`] at the offending field.
-pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<LonLatCurve, EarthError> {
+pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, EarthError> {
     let invalid = |ptr: String, msg: String| EarthError::new(ptr, Problem::InvalidSpline(msg));
     let map = v.as_object().ok_or_else(|| {
         invalid(
@@ -990,7 +993,7 @@ pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<LonLatCurve, E
         let spline = BetaDocument::from_json(&Value::Object(unit))
             .and_then(|d| d.to_spline())
             .map_err(|e| invalid(format!("{pointer}{}", e.pointer), e.message))?;
-        Ok(LonLatCurve::Beta(spline))
+        Ok(AnyCurve::Beta(spline))
     } else {
         let cps = map.get("control_points").ok_or_else(|| {
             invalid(
@@ -1004,7 +1007,7 @@ pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<LonLatCurve, E
         );
         let spline = crate::sphere::document::spline_from_json(&Value::Object(unit))
             .map_err(|e| invalid(format!("{pointer}{}", e.pointer), e.message))?;
-        Ok(LonLatCurve::BSpline(spline))
+        Ok(AnyCurve::BSpline(spline))
     }
 }
 
@@ -1024,18 +1027,18 @@ pub fn evaluate_curve(
 ) -> Result<CurveOutput, EarthError> {
     let curve = curve_from_lonlat_json(doc, pointer)?;
     let (start, stored) = match &curve {
-        LonLatCurve::BSpline(s) => {
+        AnyCurve::BSpline(s) => {
             let n = s.control_points().len();
-            (sampling_start(n), 2 * n + s.knots().len() + 1)
+            (sampling_start(n), bspline_stored_numbers(s))
         }
-        LonLatCurve::Beta(s) => {
+        AnyCurve::Beta(s) => {
             let n = s.segment_count();
-            (sampling_start(n), 2 * (3 * n + 1) + 2 * (n + 1))
+            (sampling_start(n), s.stored_numbers())
         }
     };
     let tol = auto_tolerance_rad(m_to_rad(known_error_m.unwrap_or(0.0).max(0.0)));
     let dense = sample(
-        curve.as_curve(),
+        &curve,
         ring_sampling(output.sampling, closed),
         tol,
         start,
@@ -1249,7 +1252,7 @@ mod tests {
         .unwrap();
         let doc = &r.report.fields["spline"];
         let curve = match curve_from_lonlat_json(doc, "").unwrap() {
-            LonLatCurve::BSpline(s) => s,
+            AnyCurve::BSpline(s) => s,
             _ => unreachable!(),
         };
         let pts = parse_positions(&line, "").unwrap().points;

@@ -30,7 +30,9 @@ fn invalid(pointer: impl Into<String>, msg: impl Into<String>) -> EarthError {
 pub enum Source {
     /// A Feature (a bare geometry is wrapped in one), with the pointer of its geometry.
     Feature {
+        /// The Feature.
         feature: Value,
+        /// JSON pointer of its geometry in the input.
         geometry_pointer: String,
     },
     /// A bare lon/lat spline document (evaluation only).
@@ -42,6 +44,7 @@ pub enum Source {
 pub struct FeatureSlot {
     /// JSON pointer of the feature in the input (`/features/3`, or "" for a lone Feature).
     pub pointer: String,
+    /// What the slot holds.
     pub source: Source,
 }
 
@@ -74,7 +77,9 @@ impl FeatureStats {
 /// An output Feature and its counters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProcessedFeature {
+    /// The output Feature.
     pub feature: Value,
+    /// What was done to it.
     pub stats: FeatureStats,
 }
 
@@ -232,6 +237,18 @@ impl Document {
     }
 }
 
+/// Lines and rings in a curve geometry, counted without validating it.
+fn count_curves(geometry: &Value) -> usize {
+    let kind = geometry.get("type").and_then(Value::as_str).unwrap_or("");
+    let c = geometry.get("coordinates").and_then(Value::as_array);
+    match (kind, c) {
+        ("LineString", Some(_)) => 1,
+        ("MultiLineString" | "Polygon", Some(a)) => a.len(),
+        ("MultiPolygon", Some(a)) => a.iter().map(|p| p.as_array().map_or(0, Vec::len)).sum(),
+        _ => 0,
+    }
+}
+
 fn count_positions(geometry: &Value) -> usize {
     let kind = geometry.get("type").and_then(Value::as_str).unwrap_or("");
     let depth = match kind {
@@ -251,6 +268,28 @@ fn count_positions(geometry: &Value) -> usize {
 }
 
 impl FeatureSlot {
+    /// The curves processing this slot makes, counted without validating anything (for output
+    /// limits checked before the work): lines and rings of its geometry, or with `evaluate`,
+    /// the parts of its stored fit or interpolation.
+    pub fn curve_count(&self, evaluate: bool) -> usize {
+        let feature = match &self.source {
+            Source::Spline(_) => return 1,
+            Source::Feature { feature, .. } => feature,
+        };
+        if !evaluate {
+            return feature.get("geometry").map_or(0, count_curves);
+        }
+        let props = feature.get("properties");
+        ["fit", "interpolation"]
+            .iter()
+            .find_map(|k| props.and_then(|p| p.get(*k)))
+            .map_or(0, |info| {
+                info.get("parts")
+                    .and_then(Value::as_array)
+                    .map_or(1, Vec::len)
+            })
+    }
+
     /// Processes this slot with `job`.
     ///
     /// # Errors
@@ -654,7 +693,51 @@ fn curves_of_fit(feature: &Map<String, Value>, ptr: &str, job: &Job) -> Result<M
 
 /// Runs the curves of one geometry in parallel; the first error in order wins.
 fn run_curves(jobs: &[CurveJob<'_>], job: &Job) -> Result<Vec<CurveOutput>, EarthError> {
-    let one = |c: &CurveJob<'_>| match &job.operation {
+    let one = |c: &CurveJob<'_>| {
+        if matches!(job.operation, Operation::Evaluate) {
+            check_stored_size(c, &job.limits)?;
+        }
+        // The job's token, entered on whichever (rayon) thread runs this curve: the fitters
+        // inside see it even where their options inherit.
+        let _scope = job.cancel.enter();
+        job.cancel
+            .check()
+            .map_err(|e| EarthError::new(c.pointer.clone(), Problem::Fit(e)))?;
+        one_curve(c, job)
+    };
+    if jobs.len() == 1 {
+        return Ok(vec![one(&jobs[0])?]);
+    }
+    jobs.par_iter()
+        .map(one)
+        .collect::<Vec<_>>()
+        .into_iter()
+        .collect()
+}
+
+/// A stored curve with more control points (or segments) than the limit is refused before it is
+/// read.
+fn check_stored_size(c: &CurveJob<'_>, limits: &super::Limits) -> Result<(), EarthError> {
+    for key in ["control_points", "segments"] {
+        if let Some(n) = c.value.get(key).and_then(Value::as_array).map(Vec::len) {
+            if n > limits.max_control_points {
+                return Err(EarthError::new(
+                    format!("{}/{key}", c.pointer),
+                    Problem::InvalidSpline(format!(
+                        "{n} {}, more than the limit of {} per curve",
+                        key.replace('_', " "),
+                        limits.max_control_points
+                    )),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// One curve of [`run_curves`].
+fn one_curve(c: &CurveJob<'_>, job: &Job) -> Result<CurveOutput, EarthError> {
+    match &job.operation {
         Operation::Fit(o) => fit_line(
             c.value,
             &c.pointer,
@@ -695,15 +778,7 @@ fn run_curves(jobs: &[CurveJob<'_>], job: &Job) -> Result<Vec<CurveOutput>, Eart
             &job.output,
             &job.limits,
         ),
-    };
-    if jobs.len() == 1 {
-        return Ok(vec![one(&jobs[0])?]);
     }
-    jobs.par_iter()
-        .map(one)
-        .collect::<Vec<_>>()
-        .into_iter()
-        .collect()
 }
 
 fn positions_json(ps: &[Position], has_alt: bool, precision: u32) -> Value {
@@ -721,6 +796,23 @@ fn assemble(
     job: &Job,
 ) -> Result<(Value, Value, FeatureStats), EarthError> {
     let precision = job.output.precision;
+    // A curve whose knots or parameters under- or overflow samples to non-finite points; that
+    // is the input's fault and is said so (never `null` coordinates or an empty geometry).
+    for c in &outputs {
+        if let Some(i) = c
+            .points
+            .iter()
+            .position(|p| p.iter().any(|x| !x.is_finite()))
+        {
+            return Err(EarthError::new(
+                c.pointer.clone(),
+                Problem::Fit(crate::sphere::SphereError::NonFinite {
+                    what: "the sampled curve",
+                    why: format!("output point {i} is not a number: the knot spans or parameters under- or overflow in floating point; rescale them"),
+                }),
+            ));
+        }
+    }
     let geometry = match kind {
         "LineString" | "MultiLineString" => {
             let mut pieces = Vec::new();
@@ -887,8 +979,19 @@ pub fn evaluate_spline_document(
     pointer: &str,
     job: &Job,
 ) -> Result<ProcessedFeature, EarthError> {
-    let out = evaluate_curve(doc, pointer, vec![], false, None, &job.output, &job.limits)?;
-    let (geometry, info, stats) = assemble("LineString", vec![out], job)?;
+    let jobs = [CurveJob {
+        value: doc,
+        pointer: pointer.to_string(),
+        path: vec![],
+        closed: false,
+        known_error_m: None,
+    }];
+    let evaluate = Job {
+        operation: Operation::Evaluate,
+        ..job.clone()
+    };
+    let outputs = run_curves(&jobs, &evaluate)?;
+    let (geometry, info, stats) = assemble("LineString", outputs, job)?;
     Ok(ProcessedFeature {
         feature: json!({"type": "Feature", "properties": {"evaluation": info}, "geometry": geometry}),
         stats,

@@ -23,19 +23,30 @@ pub fn m_to_rad(distance_m: f64) -> f64 {
 /// A position in degrees: longitude in [-180, 180], latitude in [-90, 90].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LonLat {
+    /// Longitude, degrees east.
     pub lon_deg: f64,
+    /// Latitude, degrees north.
     pub lat_deg: f64,
 }
 
 /// Why a pair of numbers is not a position.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum LonLatError {
     /// Longitudes outside [-180, 180] are rejected, not wrapped: a value like 181 usually means
     /// swapped or projected coordinates, and wrapping would hide that.
     #[error("longitude {lon_deg} is outside [-180, 180] (longitudes are not wrapped; is this [lat, lon] or a projected coordinate?)")]
-    LongitudeOutOfRange { lon_deg: f64 },
+    LongitudeOutOfRange {
+        /// The longitude given.
+        lon_deg: f64,
+    },
+    /// Latitudes outside [-90, 90]: no point on the Earth.
     #[error("latitude {lat_deg} is outside [-90, 90] (positions are [longitude, latitude])")]
-    LatitudeOutOfRange { lat_deg: f64 },
+    LatitudeOutOfRange {
+        /// The latitude given.
+        lat_deg: f64,
+    },
+    /// A NaN or infinite coordinate.
     #[error("coordinate is not a finite number")]
     NotFinite,
 }

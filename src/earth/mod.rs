@@ -56,6 +56,7 @@ pub use features::{
 pub use lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, unit_to_lonlat, LonLat, EARTH_RADIUS_M};
 pub use sampling::Sampling;
 
+use crate::sphere::cancel::Cancel;
 use crate::sphere::{FitOptions, SphereError};
 
 /// Highest `precision` (decimals of output degrees): 1e-15 degrees is below f64 resolution.
@@ -115,7 +116,9 @@ pub enum Operation {
     /// gives the starting parameters; `control_points`, `knots`, `iterations` and `solver` are
     /// not used.
     FitToTolerance {
+        /// Degree cap and starting parameterisation.
         options: FitOptions,
+        /// Largest allowed distance from a position to the curve, metres.
         tolerance_m: f64,
     },
     /// Interpolate every vertex with a spherical Beta-spline.
@@ -142,12 +145,19 @@ impl Default for OutputOptions {
     }
 }
 
-/// Everything [`process_feature`] needs: the operation, the output options and the limits.
+/// Everything [`process_feature`] needs: the operation, the output options, the limits and a
+/// cancellation token (checked before each curve and inside the fitters).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Job {
+    /// What to do to each line.
     pub operation: Operation,
+    /// How output lines are made.
     pub output: OutputOptions,
+    /// Bounds checked before the work they bound.
     pub limits: Limits,
+    /// Stops the work ([`Problem::Fit`] with [`SphereError::Cancelled`]) when cancelled or past
+    /// its deadline; the default inherits the token entered on the calling thread.
+    pub cancel: Cancel,
 }
 
 impl Operation {
@@ -167,6 +177,7 @@ impl Job {
             operation: Operation::Fit(options),
             output: OutputOptions::default(),
             limits: Limits::default(),
+            cancel: Cancel::inherit(),
         }
     }
 
@@ -176,6 +187,7 @@ impl Job {
             operation: Operation::Evaluate,
             output: OutputOptions::default(),
             limits: Limits::default(),
+            cancel: Cancel::inherit(),
         }
     }
 
@@ -185,6 +197,7 @@ impl Job {
             operation: Operation::Interpolate(settings),
             output: OutputOptions::default(),
             limits: Limits::default(),
+            cancel: Cancel::inherit(),
         }
     }
 
@@ -203,6 +216,12 @@ impl Job {
     /// Sets the limits.
     pub fn with_limits(mut self, limits: Limits) -> Job {
         self.limits = limits;
+        self
+    }
+
+    /// Sets the cancellation token.
+    pub fn with_cancel(mut self, cancel: Cancel) -> Job {
+        self.cancel = cancel;
         self
     }
 
@@ -363,6 +382,7 @@ impl EarthError {
 /// What can be wrong with a GeoJSON input or the options for it. [`Problem::slug`] names each
 /// kind in a stable, machine-readable way.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum Problem {
     /// Not the GeoJSON structure expected (missing or unknown `type`, coordinates not arrays).
     #[error("{0}")]
@@ -377,24 +397,41 @@ pub enum Problem {
     #[error(
         "{distinct} distinct position(s) after dropping repeats: a curve needs at least {need}"
     )]
-    TooFewPoints { distinct: usize, need: usize },
+    TooFewPoints {
+        /// Distinct positions in the line.
+        distinct: usize,
+        /// Positions the curve needs.
+        need: usize,
+    },
     /// Two consecutive positions are (nearly) antipodal: the great circle between them is
     /// undefined.
     #[error("this position and the previous one are (nearly) antipodal ({angle_deg} degrees apart): the great circle between them is undefined; add a position in between")]
-    Antipodal { angle_deg: f64 },
+    Antipodal {
+        /// Their distance, degrees of arc.
+        angle_deg: f64,
+    },
     /// More control points than distinct positions.
     #[error("{control_points} control points for a line with {distinct} distinct position(s): use at most as many control points as positions")]
     TooManyControlPoints {
+        /// Control points asked for.
         control_points: usize,
+        /// Distinct positions in the line.
         distinct: usize,
     },
     /// Output denser than the limit.
-    #[error("{needed} output points needed, more than the limit of {max} per line: use a larger spacing_m or fewer samples")]
-    TooManySamples { needed: usize, max: usize },
+    #[error("{} output points needed, more than the limit of {max} per line: use a larger spacing_m or fewer samples", count_text(*needed))]
+    TooManySamples {
+        /// Output points the sampling asks for.
+        needed: usize,
+        /// The limit per line.
+        max: usize,
+    },
     /// An option out of range or not allowed.
     #[error("{option}: {message}")]
     InvalidOption {
+        /// The option's name.
         option: &'static str,
+        /// Why it is not allowed.
         message: String,
     },
     /// A spline document (for `evaluate`) that does not describe a valid spline.
@@ -406,6 +443,15 @@ pub enum Problem {
     /// Beta-spline interpolation could not pass through every position.
     #[error("{0}")]
     Interpolation(SphereError),
+}
+
+/// A count for a message: "more than 10^18" for counts that saturated.
+fn count_text(n: usize) -> String {
+    if n as u128 >= 1_000_000_000_000_000_000 {
+        "more than 10^18".into()
+    } else {
+        n.to_string()
+    }
 }
 
 impl Problem {
@@ -421,6 +467,8 @@ impl Problem {
             Problem::TooManySamples { .. } => "too-many-samples",
             Problem::InvalidOption { .. } => "invalid-option",
             Problem::InvalidSpline(_) => "invalid-spline",
+            Problem::Fit(SphereError::Cancelled) => "cancelled",
+            Problem::Fit(SphereError::NonFinite { .. }) => "non-finite",
             Problem::Fit(_) => "unfittable",
             Problem::Interpolation(_) => "not-interpolable",
         }

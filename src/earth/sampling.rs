@@ -39,7 +39,12 @@ pub enum Sampling {
     /// About this many metres between output points.
     SpacingM(f64),
     /// At most `spacing_m` metres apart and at least `samples` points.
-    SpacingAndSamples { spacing_m: f64, samples: usize },
+    SpacingAndSamples {
+        /// Largest distance between output points, metres.
+        spacing_m: f64,
+        /// Fewest output points.
+        samples: usize,
+    },
 }
 
 /// A curve sampled densely.

@@ -1,27 +1,30 @@
 //! Route handlers. Each POST handler checks the content type and the query, reads the body
-//! within the byte limit, takes a fitting slot, and does all parsing and CPU work on the
-//! blocking pool within the request's time budget.
+//! within its bounds ([`super::body`]), takes a fitting slot, and does all parsing and CPU work
+//! on the blocking pool within the request's time budget, checking every output size before
+//! the work that would make it. A request rejected before its body is read still reads (and
+//! discards) what the client sends, so the client sees the answer.
 
+use super::body::{read_body, reject, HeldBody};
 use super::error::ApiError;
 use super::query::{self, fit_options, GeoEndpoint, Params};
 use super::{AppState, ServiceConfig, OPENAPI_YAML};
 use crate::document::{curve_from_json, InterpolationDocument};
-use crate::earth::{Document, EarthError, FeatureStats, Job};
+use crate::earth::{Document, FeatureStats, Job};
+use crate::sphere::cancel::Cancel;
 use crate::sphere::document::{
     pointer_for, tolerance_document, FitDocument, PointsInput, SamplesDocument,
 };
 use crate::sphere::interpolate;
 use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::{InterpolationOptions, SphereError, SphericalCurve};
-use axum::body::{Body, Bytes};
+use axum::body::Body;
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Query, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode, Uri};
 use axum::response::{IntoResponse, Response};
 use rayon::prelude::*;
 use serde_json::{json, Value};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 const GEO_JSON: &str = "application/geo+json";
@@ -59,56 +62,68 @@ fn check_content_type(headers: &HeaderMap, accepted: &[&str]) -> Result<(), ApiE
     }
 }
 
-/// Reads the whole body, at most `limit` bytes.
-async fn read_body(body: Body, limit: usize) -> Result<Bytes, ApiError> {
-    axum::body::to_bytes(body, limit).await.map_err(|e| {
-        let inner = e.into_inner();
-        let mut source: Option<&(dyn std::error::Error + 'static)> = Some(inner.as_ref());
-        while let Some(s) = source {
-            if s.is::<http_body_util::LengthLimitError>() {
-                return ApiError::body_too_large(limit);
-            }
-            source = s.source();
-        }
-        ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "unreadable-body",
-            format!("the request body could not be read: {inner}"),
-        )
-    })
-}
-
+/// Parses JSON; a UTF-8 byte order mark in front is skipped (RFC 8259 §8.1 lets a parser
+/// ignore it, and Windows tools write one).
 fn parse_json(bytes: &[u8]) -> Result<Value, ApiError> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     serde_json::from_slice(bytes)
         .map_err(|e| ApiError::malformed_json(format!("the body is not valid JSON: {e}")))
 }
 
-/// Sets the cancel flag when the request is dropped (time budget, client gone).
-struct CancelOnDrop(Arc<AtomicBool>);
+/// Cancels the work when the request is dropped (time budget, client gone).
+struct CancelOnDrop(Cancel);
 
 impl Drop for CancelOnDrop {
     fn drop(&mut self) {
-        self.0.store(true, Ordering::Relaxed);
+        self.0.cancel();
     }
 }
 
-/// Runs `work` on the blocking pool holding a fitting slot, within the time budget.
+/// Checks a request before its body is read; on error the body is drained first (see the
+/// module docs).
+async fn precheck<T>(
+    state: &AppState,
+    body: Body,
+    check: impl FnOnce() -> Result<T, ApiError>,
+) -> Result<(T, Body), ApiError> {
+    match check() {
+        Ok(t) => Ok((t, body)),
+        Err(e) => Err(reject(state, body, e).await),
+    }
+}
+
+/// Maps a cancelled computation to 503 `timeout`; other errors stay as they are.
+fn cancelled_is_timeout(e: ApiError, config: &ServiceConfig) -> ApiError {
+    if e.slug == "cancelled" {
+        ApiError::timeout(config.request_timeout.as_secs_f64())
+    } else {
+        e
+    }
+}
+
+/// Runs `work` on the blocking pool holding a fitting slot, within the time budget. The work
+/// gets a [`Cancel`] that fires at the deadline or when the request is dropped, and keeps the
+/// body (and its share of the byte budget) until it ends.
 async fn run_cpu<T: Send + 'static>(
     state: &AppState,
     route: &'static str,
     start: Instant,
-    work: impl FnOnce(&AtomicBool) -> Result<(T, usize, usize), ApiError> + Send + 'static,
+    body: HeldBody,
+    work: impl FnOnce(&[u8], &Cancel) -> Result<(T, usize, usize), ApiError> + Send + 'static,
 ) -> Result<T, ApiError> {
     let budget = state.config.request_timeout;
     let deadline = start + budget;
     let slot = state.enter(deadline).await?;
-    let cancel = Arc::new(AtomicBool::new(false));
+    let cancel = Cancel::with_deadline(deadline);
     let _guard = CancelOnDrop(cancel.clone());
     let metrics = state.metrics.clone();
+    let config = state.config.clone();
     let handle = tokio::task::spawn_blocking(move || {
         let _slot = slot;
         let t0 = Instant::now();
-        let r = work(&cancel);
+        let r = work(&body.bytes, &cancel);
+        drop(body);
+        let r = r.map_err(|e| cancelled_is_timeout(e, &config));
         if let Ok((_, points, curves)) = &r {
             metrics.record_fit(route, t0.elapsed().as_secs_f64(), *points, *curves);
         }
@@ -166,13 +181,23 @@ async fn geo(
     body: Body,
 ) -> Result<Response, ApiError> {
     let start = Instant::now();
-    check_content_type(&headers, &[GEO_JSON, JSON])?;
-    let job = query::geo_job(pairs(q)?, endpoint, &state.config.limits)?;
-    let bytes = read_body(body, state.config.max_body_bytes).await?;
-    let config = state.config.clone();
-    let out = run_cpu(&state, endpoint.route(), start, move |cancel| {
-        geo_work(&bytes, endpoint, &job, &config, cancel)
+    let (job, body) = precheck(&state, body, || {
+        check_content_type(&headers, &[GEO_JSON, JSON])?;
+        query::geo_job(pairs(q)?, endpoint, &state.config.limits)
     })
+    .await?;
+    let held = read_body(&state, &headers, body, start).await?;
+    let config = state.config.clone();
+    let out = run_cpu(
+        &state,
+        endpoint.route(),
+        start,
+        held,
+        move |bytes, cancel| {
+            let job = job.with_cancel(cancel.clone());
+            geo_work(bytes, endpoint, &job, &config, cancel)
+        },
+    )
     .await?;
     Ok(respond(GEO_JSON, out))
 }
@@ -183,7 +208,7 @@ fn geo_work(
     endpoint: GeoEndpoint,
     job: &Job,
     config: &ServiceConfig,
-    cancel: &AtomicBool,
+    cancel: &Cancel,
 ) -> Result<(Vec<u8>, usize, usize), ApiError> {
     let value = parse_json(bytes)?;
     let doc = Document::parse(value, endpoint == GeoEndpoint::Evaluate)?;
@@ -197,16 +222,44 @@ fn geo_work(
             ));
         }
     }
+    // Output that is known before any work (`samples` per curve) is checked up front; the
+    // rest (automatic sampling, spacing_m) is counted as features finish, and the work stops
+    // as soon as the running total passes the limit.
+    let per_curve = match job.output.sampling {
+        crate::earth::Sampling::Samples(n)
+        | crate::earth::Sampling::SpacingAndSamples { samples: n, .. } => n,
+        _ => 2,
+    };
+    let evaluate = endpoint == GeoEndpoint::Evaluate;
+    let curves: usize = doc.slots.iter().map(|s| s.curve_count(evaluate)).sum();
+    let floor = curves.saturating_mul(per_curve);
+    if floor > config.max_output_points {
+        return Err(output_too_large(
+            format!("{curves} curves x {per_curve} points = {floor}"),
+            config.max_output_points,
+        ));
+    }
     let lowest_failed = AtomicUsize::new(usize::MAX);
-    let results: Vec<Option<Result<crate::earth::ProcessedFeature, EarthError>>> = doc
+    let output_total = AtomicUsize::new(0);
+    let results: Vec<Option<Result<crate::earth::ProcessedFeature, ApiError>>> = doc
         .slots
         .par_iter()
         .enumerate()
         .map(|(i, slot)| {
-            if cancel.load(Ordering::Relaxed) || i > lowest_failed.load(Ordering::Relaxed) {
+            if cancel.is_cancelled() || i > lowest_failed.load(Ordering::Relaxed) {
                 return None;
             }
-            let r = slot.process(job);
+            let mut r = slot.process(job).map_err(ApiError::from);
+            if let Ok(p) = &r {
+                let total = output_total.fetch_add(p.stats.output_points, Ordering::Relaxed)
+                    + p.stats.output_points;
+                if total > config.max_output_points {
+                    r = Err(output_too_large(
+                        format!("more than {total}"),
+                        config.max_output_points,
+                    ));
+                }
+            }
             if r.is_err() {
                 lowest_failed.fetch_min(i, Ordering::Relaxed);
             }
@@ -221,7 +274,7 @@ fn geo_work(
                 stats.merge(&p.stats);
                 features.push(p.feature);
             }
-            Some(Err(e)) => return Err(e.into()),
+            Some(Err(e)) => return Err(e),
             None => return Err(ApiError::timeout(config.request_timeout.as_secs_f64())),
         }
     }
@@ -235,19 +288,20 @@ fn geo_work(
         )
         .at(""));
     }
-    if stats.output_points > config.max_output_points {
-        return Err(ApiError::unprocessable(
-            "output-too-large",
-            format!(
-                "the output would have {} points, more than the limit of {} per request: use fewer samples or a larger spacing_m",
-                stats.output_points, config.max_output_points
-            ),
-        )
-        .at(""));
-    }
     let out = doc.into_feature_collection(features, true);
     let bytes = serde_json::to_vec(&out).map_err(|_| ApiError::internal())?;
     Ok((bytes, stats.input_points, stats.curves))
+}
+
+/// 422 `output-too-large`: `what` says how many points the output would have.
+fn output_too_large(what: String, limit: usize) -> ApiError {
+    ApiError::unprocessable(
+        "output-too-large",
+        format!(
+            "the output would have {what} points, more than the limit of {limit} per request: use fewer samples, a larger spacing_m or fewer curves per request"
+        ),
+    )
+    .at("")
 }
 
 /// Where a points document keeps its points: `/points` in an object, the root in an array.
@@ -286,6 +340,10 @@ fn sphere_error(e: SphereError, base: &str) -> ApiError {
         SphereError::NotInterpolated { joint, .. } | SphereError::DegenerateArc { joint, .. } => {
             ApiError::unprocessable("not-interpolable", detail).at(format!("{base}/{joint}"))
         }
+        SphereError::Cancelled => ApiError::unprocessable("cancelled", detail),
+        SphereError::NonFinite { .. } => {
+            ApiError::unprocessable("non-finite", detail).at(pointer_for(base, &e))
+        }
         _ => ApiError::unprocessable("unfittable", detail).at(pointer_for(base, &e)),
     }
 }
@@ -301,14 +359,13 @@ fn check_point_count(n: usize, base: &str, config: &ServiceConfig) -> Result<(),
     Ok(())
 }
 
-pub(super) async fn sphere_fit(
-    State(state): State<AppState>,
-    headers: HeaderMap,
+/// The options of `/v1/sphere/fit`, checked against the limits.
+fn sphere_fit_options(
+    state: &AppState,
+    headers: &HeaderMap,
     q: QueryPairs,
-    body: Body,
-) -> Result<Response, ApiError> {
-    let start = Instant::now();
-    check_content_type(&headers, &[JSON])?;
+) -> Result<(crate::sphere::FitOptions, Option<f64>), ApiError> {
+    check_content_type(headers, &[JSON])?;
     let p = Params::new(pairs(q)?, query::SPHERE_FIT_PARAMS)?;
     let mut options = fit_options(&p)?;
     options.target_max_error_rad = p.num("target_max_error_rad")?;
@@ -354,43 +411,65 @@ pub(super) async fn sphere_fit(
             .param("target_max_error_rad"));
         }
     }
-    let bytes = read_body(body, state.config.max_body_bytes).await?;
+    Ok((options, tolerance_rad))
+}
+
+pub(super) async fn sphere_fit(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    q: QueryPairs,
+    body: Body,
+) -> Result<Response, ApiError> {
+    let start = Instant::now();
+    let ((options, tolerance_rad), body) =
+        precheck(&state, body, || sphere_fit_options(&state, &headers, q)).await?;
+    let held = read_body(&state, &headers, body, start).await?;
     let config = state.config.clone();
-    let out = run_cpu(&state, "/v1/sphere/fit", start, move |_| {
-        let v = parse_json(&bytes)?;
-        let base = points_base(&v);
-        let input = PointsInput::from_json(&v)?;
-        check_point_count(input.points.len(), base, &config)?;
-        if let Some(tolerance_rad) = tolerance_rad {
-            // As `sphere fit --tolerance-rad`: degree caps the degrees tried.
-            let mut t = ToleranceOptions {
-                parameterization: options.parameterization,
-                max_control_points: Some(config.limits.max_control_points),
-                ..ToleranceOptions::default()
-            };
-            t.degrees.retain(|&d| d <= options.degree.max(1));
-            let r = fit_to_tolerance(
-                &input.points,
-                input.parameters.as_deref(),
-                tolerance_rad,
-                &t,
-            )
-            .map_err(|e| sphere_error(e, base))?;
-            let body =
-                serde_json::to_vec(&tolerance_document(&r)).map_err(|_| ApiError::internal())?;
-            return Ok((body, input.points.len(), 1));
-        }
-        let mut options = options;
-        if options.control_points.is_none() {
-            let n = crate::sphere::fit::default_control_points(input.points.len(), options.degree);
-            options.control_points = Some(n.min(config.limits.max_control_points));
-        }
-        let report = crate::sphere::fit::fit(&input.points, input.parameters.as_deref(), &options)
-            .map_err(|e| sphere_error(e, base))?;
-        let body =
-            serde_json::to_vec(&FitDocument::from(&report)).map_err(|_| ApiError::internal())?;
-        Ok((body, input.points.len(), 1))
-    })
+    let out = run_cpu(
+        &state,
+        "/v1/sphere/fit",
+        start,
+        held,
+        move |bytes, cancel| {
+            let v = parse_json(bytes)?;
+            let base = points_base(&v);
+            let input = PointsInput::from_json(&v)?;
+            check_point_count(input.points.len(), base, &config)?;
+            if let Some(tolerance_rad) = tolerance_rad {
+                // As `sphere fit --tolerance-rad`: degree caps the degrees tried.
+                let mut t = ToleranceOptions {
+                    parameterization: options.parameterization,
+                    max_control_points: Some(config.limits.max_control_points),
+                    cancel: cancel.clone(),
+                    ..ToleranceOptions::default()
+                };
+                t.degrees.retain(|&d| d <= options.degree.max(1));
+                let r = fit_to_tolerance(
+                    &input.points,
+                    input.parameters.as_deref(),
+                    tolerance_rad,
+                    &t,
+                )
+                .map_err(|e| sphere_error(e, base))?;
+                let body = serde_json::to_vec(&tolerance_document(&r))
+                    .map_err(|_| ApiError::internal())?;
+                return Ok((body, input.points.len(), 1));
+            }
+            let mut options = options;
+            options.cancel = cancel.clone();
+            if options.control_points.is_none() {
+                let n =
+                    crate::sphere::fit::default_control_points(input.points.len(), options.degree);
+                options.control_points = Some(n.min(config.limits.max_control_points));
+            }
+            let report =
+                crate::sphere::fit::fit(&input.points, input.parameters.as_deref(), &options)
+                    .map_err(|e| sphere_error(e, base))?;
+            let body = serde_json::to_vec(&FitDocument::from(&report))
+                .map_err(|_| ApiError::internal())?;
+            Ok((body, input.points.len(), 1))
+        },
+    )
     .await?;
     Ok(respond(JSON, out))
 }
@@ -402,41 +481,53 @@ pub(super) async fn sphere_interpolate(
     body: Body,
 ) -> Result<Response, ApiError> {
     let start = Instant::now();
-    check_content_type(&headers, &[JSON])?;
-    let p = Params::new(pairs(q)?, query::SPHERE_INTERPOLATE_PARAMS)?;
-    let mut options = InterpolationOptions::default();
-    if let Some(b) = p.num("beta1")? {
-        options = options.with_beta1(b);
-    }
-    if let Some(b) = p.num("beta2")? {
-        options = options.with_beta2(b);
-    }
-    let settings = crate::earth::InterpolateSettings {
-        beta1: options.beta1[0],
-        beta2: options.beta2[0],
-    };
-    crate::earth::Job::interpolate(settings)
-        .validate()
-        .map_err(ApiError::from)?;
-    let bytes = read_body(body, state.config.max_body_bytes).await?;
-    let config = state.config.clone();
-    let out = run_cpu(&state, "/v1/sphere/interpolate", start, move |_| {
-        let v = parse_json(&bytes)?;
-        let base = points_base(&v);
-        let input = PointsInput::from_json(&v)?;
-        if v.get("parameters").is_some() {
-            return Err(ApiError::unprocessable(
-                "invalid-points",
-                "interpolation puts point j at parameter j; \"parameters\" are not used here",
-            )
-            .at("/parameters"));
+    let (options, body) = precheck(&state, body, || {
+        check_content_type(&headers, &[JSON])?;
+        let p = Params::new(pairs(q)?, query::SPHERE_INTERPOLATE_PARAMS)?;
+        let mut options = InterpolationOptions::default();
+        if let Some(b) = p.num("beta1")? {
+            options = options.with_beta1(b);
         }
-        check_point_count(input.points.len(), base, &config)?;
-        let r = interpolate(&input.points, &options).map_err(|e| sphere_error(e, base))?;
-        let body = serde_json::to_vec(&InterpolationDocument::from(&r))
-            .map_err(|_| ApiError::internal())?;
-        Ok((body, input.points.len(), 1))
+        if let Some(b) = p.num("beta2")? {
+            options = options.with_beta2(b);
+        }
+        let settings = crate::earth::InterpolateSettings {
+            beta1: options.beta1[0],
+            beta2: options.beta2[0],
+        };
+        crate::earth::Job::interpolate(settings)
+            .validate()
+            .map_err(ApiError::from)?;
+        Ok(options)
     })
+    .await?;
+    let held = read_body(&state, &headers, body, start).await?;
+    let config = state.config.clone();
+    let out = run_cpu(
+        &state,
+        "/v1/sphere/interpolate",
+        start,
+        held,
+        move |bytes, cancel| {
+            let mut options = options;
+            options.cancel = cancel.clone();
+            let v = parse_json(bytes)?;
+            let base = points_base(&v);
+            let input = PointsInput::from_json(&v)?;
+            if v.get("parameters").is_some() {
+                return Err(ApiError::unprocessable(
+                    "invalid-points",
+                    "interpolation puts point j at parameter j; \"parameters\" are not used here",
+                )
+                .at("/parameters"));
+            }
+            check_point_count(input.points.len(), base, &config)?;
+            let r = interpolate(&input.points, &options).map_err(|e| sphere_error(e, base))?;
+            let body = serde_json::to_vec(&InterpolationDocument::from(&r))
+                .map_err(|_| ApiError::internal())?;
+            Ok((body, input.points.len(), 1))
+        },
+    )
     .await?;
     Ok(respond(JSON, out))
 }
@@ -448,7 +539,57 @@ pub(super) async fn sphere_evaluate(
     body: Body,
 ) -> Result<Response, ApiError> {
     let start = Instant::now();
-    check_content_type(&headers, &[JSON])?;
+    let ((at, count), body) = precheck(&state, body, || {
+        sphere_evaluate_options(&state, &headers, q)
+    })
+    .await?;
+    let held = read_body(&state, &headers, body, start).await?;
+    let max_numbers = state.config.max_output_points.saturating_mul(3);
+    let out = run_cpu(&state, "/v1/sphere/evaluate", start, held, move |bytes, _| {
+        let v = parse_json(bytes)?;
+        let curve = curve_from_json(&v)
+            .map_err(|e| ApiError::unprocessable("invalid-spline", e.message).at(e.pointer))?;
+        // Output numbers (points x ambient dimension), checked before they are made.
+        let numbers = count.saturating_mul(curve.dim());
+        if numbers > max_numbers {
+            return Err(ApiError::unprocessable(
+                "output-too-large",
+                format!(
+                    "the output would have {count} points of dimension {} = {numbers} numbers, more than the limit of {max_numbers} (3 x the output point limit) per request: use fewer samples",
+                    curve.dim()
+                ),
+            )
+            .param(if at.is_some() { "at" } else { "samples" }));
+        }
+        let ts = at.unwrap_or_else(|| crate::sphere::curve::even_parameters(curve.domain(), count));
+        let pts = curve.evaluate_many(&ts);
+        if let Some(i) = pts.to_rows().iter().position(|r| r.iter().any(|x| !x.is_finite())) {
+            return Err(ApiError::unprocessable(
+                "non-finite",
+                format!("the curve at parameter {} is not a finite point: its knot spans under- or overflow in floating point; rescale the knots", ts[i]),
+            )
+            .at("/knots"));
+        }
+        let n = ts.len();
+        let body = serde_json::to_vec(&SamplesDocument {
+            parameters: ts,
+            points: pts.to_rows(),
+        })
+        .map_err(|_| ApiError::internal())?;
+        Ok((body, n, 1))
+    })
+    .await?;
+    Ok(respond(JSON, out))
+}
+
+/// The query of `/v1/sphere/evaluate`: explicit parameters, or the number of samples.
+#[allow(clippy::type_complexity)]
+fn sphere_evaluate_options(
+    state: &AppState,
+    headers: &HeaderMap,
+    q: QueryPairs,
+) -> Result<(Option<Vec<f64>>, usize), ApiError> {
+    check_content_type(headers, &[JSON])?;
     let p = Params::new(pairs(q)?, query::SPHERE_EVALUATE_PARAMS)?;
     let max = state.config.limits.max_samples;
     let samples = p.int("samples")?;
@@ -484,23 +625,7 @@ pub(super) async fn sphere_evaluate(
         )
         .param(name));
     }
-    let bytes = read_body(body, state.config.max_body_bytes).await?;
-    let out = run_cpu(&state, "/v1/sphere/evaluate", start, move |_| {
-        let v = parse_json(&bytes)?;
-        let curve = curve_from_json(&v)
-            .map_err(|e| ApiError::unprocessable("invalid-spline", e.message).at(e.pointer))?;
-        let ts = at.unwrap_or_else(|| crate::sphere::curve::even_parameters(curve.domain(), count));
-        let pts = curve.evaluate_many(&ts);
-        let n = ts.len();
-        let body = serde_json::to_vec(&SamplesDocument {
-            parameters: ts,
-            points: pts.to_rows(),
-        })
-        .map_err(|_| ApiError::internal())?;
-        Ok((body, n, 1))
-    })
-    .await?;
-    Ok(respond(JSON, out))
+    Ok((at, count))
 }
 
 pub(super) async fn health() -> Response {

@@ -81,6 +81,19 @@ fn esc(s: &str) -> String {
         .replace('\n', "\\n")
 }
 
+/// The `method` label: one of the standard methods, or `other` (a label taken from the client
+/// as is would let each made-up method add a series).
+pub fn method_label(method: &str) -> &'static str {
+    const KNOWN: [&str; 9] = [
+        "GET", "HEAD", "POST", "PUT", "DELETE", "OPTIONS", "PATCH", "CONNECT", "TRACE",
+    ];
+    KNOWN
+        .iter()
+        .find(|m| **m == method)
+        .copied()
+        .unwrap_or("other")
+}
+
 impl Metrics {
     /// Records one finished request.
     pub fn record_request(
@@ -92,7 +105,7 @@ impl Metrics {
         seconds: f64,
     ) {
         *lock(&self.requests)
-            .entry((route.to_string(), method.to_string(), status))
+            .entry((route.to_string(), method_label(method).to_string(), status))
             .or_default() += 1;
         if status >= 400 {
             *lock(&self.errors)

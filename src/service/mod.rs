@@ -2,7 +2,7 @@
 //!
 //! [`router`] builds everything (routes and layers); `main` and the tests both call it. The
 //! contract is `openapi.yaml` (served at `/openapi.yaml`); errors are RFC 9457 problem+json
-//! ([`error`]).
+//! (`error.rs`).
 //!
 //! | route | what |
 //! |---|---|
@@ -11,19 +11,31 @@
 //! | `POST /v1/evaluate` | `properties.fit` / `interpolation` (or a lon/lat spline) -> dense GeoJSON |
 //! | `POST /v1/sphere/fit`, `/interpolate`, `/evaluate` | the CLI's S^n JSON documents |
 //! | `GET /health`, `/openapi.yaml`, `/metrics` | liveness, contract, Prometheus text |
+//! | `GET /`, `/page/{asset}`, `/v1/limits` | the map page (`page.rs`, `web/`), its files, the limits |
 //!
 //! # Runtime
 //! CPU work runs on the blocking pool (the features of one request on rayon, in parallel),
 //! never on the async workers. A request needs one of `fit_concurrency` slots to start; up to
 //! `fit_queue` more wait for one; past that, 503 `overloaded` with `Retry-After`. Every request
-//! has a time budget (503 `timeout`); a request that runs out stops its remaining features.
+//! has a time budget (503 `timeout`): the work itself is cancelled (checked every iteration of
+//! the fitters and before every curve), so its slot is free again within about a second.
+//!
+//! # Connections and bodies
+//! [`serve`] runs its own accept loop (hyper): at most `max_connections` connections (past that,
+//! a canned 503 and close), a header read timeout that also closes idle keep-alive connections,
+//! and a bounded graceful shutdown. Bodies are read within `body_timeout` (408 past it, 400 for a
+//! body cut short) and count against a global byte budget for bodies in flight
+//! (`max_body_bytes_in_flight`); a body over the limit is read and discarded up to a bound before
+//! the 413 is sent, so that clients that write the whole body before reading see it.
 
-pub mod error;
+mod body;
+pub(crate) mod error;
 mod handlers;
-pub mod metrics;
-pub mod query;
+pub(crate) mod metrics;
+mod page;
+pub(crate) mod query;
 
-pub use error::ApiError;
+pub(crate) use error::ApiError;
 
 use crate::earth::Limits;
 use axum::error_handling::HandleErrorLayer;
@@ -40,7 +52,6 @@ use std::time::{Duration, Instant};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 use tower::ServiceBuilder;
 use tower_http::catch_panic::CatchPanicLayer;
-use tower_http::limit::RequestBodyLimitLayer;
 use tower_http::timeout::TimeoutLayer;
 use tower_http::trace::{DefaultMakeSpan, DefaultOnResponse, TraceLayer};
 
@@ -67,6 +78,16 @@ pub struct ServiceConfig {
     pub fit_queue: usize,
     /// Requests of any kind in flight at once; past that, 503 `overloaded`.
     pub max_in_flight: usize,
+    /// Time for a whole request body to arrive (408 `body-timeout`); at most `request_timeout`.
+    pub body_timeout: Duration,
+    /// Bytes of request bodies held at once by all requests; a body waits for room until its
+    /// `body_timeout` (then 503 `overloaded`).
+    pub max_body_bytes_in_flight: usize,
+    /// Time for a request's header to arrive, and the longest an idle keep-alive connection
+    /// stays open.
+    pub header_timeout: Duration,
+    /// Open connections at once; past that, new connections get a canned 503 and are closed.
+    pub max_connections: usize,
 }
 
 impl Default for ServiceConfig {
@@ -80,6 +101,10 @@ impl Default for ServiceConfig {
             fit_concurrency: std::thread::available_parallelism().map_or(2, |n| n.get()),
             fit_queue: 64,
             max_in_flight: 1024,
+            body_timeout: Duration::from_secs(10),
+            max_body_bytes_in_flight: 128 * 1024 * 1024,
+            header_timeout: Duration::from_secs(10),
+            max_connections: 1024,
         }
     }
 }
@@ -87,9 +112,11 @@ impl Default for ServiceConfig {
 /// Shared state of the handlers.
 #[derive(Clone, Debug)]
 pub struct AppState {
-    pub config: Arc<ServiceConfig>,
-    pub metrics: Arc<Metrics>,
+    pub(crate) config: Arc<ServiceConfig>,
+    pub(crate) metrics: Arc<Metrics>,
     gate: Arc<FitGate>,
+    /// Bytes of bodies in flight (one permit a byte).
+    pub(crate) body_bytes: Arc<Semaphore>,
 }
 
 impl AppState {
@@ -100,10 +127,17 @@ impl AppState {
             waiting: AtomicUsize::new(0),
             queue: config.fit_queue,
         };
+        let body_bytes = Arc::new(Semaphore::new(
+            config
+                .max_body_bytes_in_flight
+                .max(config.max_body_bytes)
+                .min(Semaphore::MAX_PERMITS),
+        ));
         AppState {
             config: Arc::new(config),
             metrics: Arc::new(Metrics::default()),
             gate: Arc::new(gate),
+            body_bytes,
         }
     }
 }
@@ -173,8 +207,9 @@ impl AppState {
 }
 
 /// All routes and layers. Layers, outermost first: metrics, problem+json for responses made
-/// outside the handlers, trace, timeout (503), body limit (413), global concurrency limit with
-/// load shedding (503), catch-panic (500).
+/// outside the handlers, trace, timeout (503), global concurrency limit with load shedding
+/// (503), catch-panic (500). The body limit (413), body deadline (408) and body byte budget are
+/// applied by the handlers as they read the body.
 pub fn router(state: AppState) -> Router {
     let config = state.config.clone();
     // Two stacks because each `Router::layer` call turns response bodies back into `Body`,
@@ -191,7 +226,6 @@ pub fn router(state: AppState) -> Router {
             config.request_timeout + Duration::from_secs(1),
         ));
     let inner = ServiceBuilder::new()
-        .layer(RequestBodyLimitLayer::new(config.max_body_bytes))
         .layer(HandleErrorLayer::new(|_: tower::BoxError| async {
             ApiError::overloaded()
         }))
@@ -215,6 +249,7 @@ pub fn router(state: AppState) -> Router {
         .route("/health", get(handlers::health))
         .route("/openapi.yaml", get(handlers::openapi))
         .route("/metrics", get(handlers::metrics))
+        .merge(page::routes())
         .fallback(handlers::not_found)
         .layer(DefaultBodyLimit::disable())
         .layer(inner)
@@ -270,19 +305,85 @@ async fn problem_for_bare_errors(req: Request, next: Next) -> Response {
     out
 }
 
-/// Serves `router(state)` on `listener` until `shutdown` completes, then finishes the requests
-/// in flight.
+/// The canned answer to a connection over `max_connections` (written without waiting).
+const OVER_CONNECTIONS: &[u8] = b"HTTP/1.1 503 Service Unavailable\r\ncontent-type: application/problem+json\r\nretry-after: 1\r\nconnection: close\r\ncontent-length: 151\r\n\r\n{\"type\":\"urn:spherefit:problem:overloaded\",\"title\":\"Overloaded\",\"status\":503,\"detail\":\"too many open connections: retry after the time in Retry-After\"}";
+
+/// Serves `router(state)` on `listener` until `shutdown` completes; then stops accepting, lets
+/// the requests in flight finish for at most `request_timeout` + 1 s, and closes the rest.
+///
+/// Each connection is HTTP/1.1 with keep-alive; its header must arrive within
+/// `header_timeout`, which also closes idle keep-alive connections. At most `max_connections`
+/// are open at once.
 ///
 /// # Errors
-/// I/O errors of the listener.
+/// I/O errors of the listener (other than per-connection accept errors, which are skipped).
 pub async fn serve(
     listener: tokio::net::TcpListener,
     state: AppState,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
-    axum::serve(listener, router(state))
-        .with_graceful_shutdown(shutdown)
-        .await
+    use hyper_util::rt::{TokioIo, TokioTimer};
+    let config = state.config.clone();
+    let app = router(state);
+    let connections = Arc::new(Semaphore::new(config.max_connections.max(1)));
+    let (close_tx, close_rx) = tokio::sync::watch::channel(false);
+    let mut tasks = tokio::task::JoinSet::new();
+    tokio::pin!(shutdown);
+    loop {
+        let (stream, _peer) = tokio::select! {
+            _ = &mut shutdown => break,
+            // Reap finished connection tasks as we go.
+            Some(_) = tasks.join_next(), if !tasks.is_empty() => continue,
+            accepted = listener.accept() => match accepted {
+                Ok(s) => s,
+                Err(e) => {
+                    // Per-connection errors (reset before accept, out of descriptors): keep
+                    // serving, after a breath when the process is out of descriptors.
+                    tracing::warn!(error = %e, "accept failed");
+                    tokio::time::sleep(Duration::from_millis(20)).await;
+                    continue;
+                }
+            },
+        };
+        let Ok(permit) = connections.clone().try_acquire_owned() else {
+            let _ = stream.try_write(OVER_CONNECTIONS);
+            continue;
+        };
+        let _ = stream.set_nodelay(true);
+        let service = hyper_util::service::TowerToHyperService::new(app.clone());
+        let mut close = close_rx.clone();
+        let header_timeout = config.header_timeout;
+        tasks.spawn(async move {
+            let _permit = permit;
+            let mut builder = hyper::server::conn::http1::Builder::new();
+            builder
+                .timer(TokioTimer::new())
+                .header_read_timeout(header_timeout)
+                .keep_alive(true);
+            let conn = builder.serve_connection(TokioIo::new(stream), service);
+            tokio::pin!(conn);
+            tokio::select! {
+                _ = conn.as_mut() => {}
+                _ = async { close.wait_for(|&c| c).await.map(|_| ()) } => {
+                    conn.as_mut().graceful_shutdown();
+                    let _ = conn.await;
+                }
+            }
+        });
+    }
+    drop(listener);
+    let _ = close_tx.send(true);
+    let grace = config.request_timeout + Duration::from_secs(1);
+    let drained =
+        tokio::time::timeout(grace, async { while tasks.join_next().await.is_some() {} }).await;
+    if drained.is_err() {
+        tracing::warn!(
+            open = tasks.len(),
+            "closing the connections still open after the shutdown grace period"
+        );
+        tasks.shutdown().await;
+    }
+    Ok(())
 }
 
 /// Completes on SIGINT (Ctrl-C) or SIGTERM.

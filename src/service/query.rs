@@ -304,6 +304,7 @@ pub fn geo_job(
         operation,
         output: output_options(&p)?,
         limits: limits.clone(),
+        cancel: Default::default(),
     };
     job.validate().map_err(ApiError::from)?;
     Ok(job)

@@ -2,8 +2,8 @@
 //! the HTTP service for the whole document, and errors that point into the document.
 
 use serde_json::{json, Value};
-use spherefit::earth::{process_feature, Document, Job, Problem, Sampling};
-use spherefit::sphere::FitOptions;
+use spherefit::earth::{process_feature, Document, Job, Operation, Problem, Sampling};
+use spherefit::sphere::{FitOptions, KnotPlacement};
 
 const BORDER: &str = include_str!("../../fixtures/us_mexico_border_natural_earth.geojson");
 
@@ -41,8 +41,9 @@ fn feature_by_feature_equals_the_whole_document() {
     assert_eq!(stats.curves, 3);
     assert_eq!(stats.input_points, 28 + 142 + 966);
     assert_eq!(stats.output_points, 600);
-    // 20 control points x 2 coordinates + 24 knots + the degree, per curve.
-    assert_eq!(stats.stored_numbers, 3 * (40 + 24 + 1));
+    // 20 control points x 2 coordinates + 16 interior knots + the degree, per curve (the end
+    // knots are 0 and 1).
+    assert_eq!(stats.stored_numbers, 3 * (40 + 16 + 1));
     assert!(stats.max_error_m > 0.0);
     let collection =
         doc.into_feature_collection(outs.into_iter().map(|o| o.feature).collect(), true);
@@ -79,5 +80,66 @@ fn every_output_position_is_on_the_earth_and_rounded() {
             assert!((-180.0..=180.0).contains(&lon) && (-90.0..=90.0).contains(&lat));
             assert_eq!((lon * 1e5).round() / 1e5, lon, "rounded to 5 decimals");
         }
+    }
+}
+
+/// One rule counts the numbers a B-spline stores, whichever path made it: a tolerance fit and a
+/// plain fit with the same degree, control points and knots report the same count, and it
+/// matches an independent count from the spline document in the output.
+#[test]
+fn fit_and_tolerance_fit_count_stored_numbers_alike() {
+    let fc: Value = serde_json::from_str(BORDER).unwrap();
+    let feature = &fc["features"][2];
+    // (control points, degree, stored numbers) from the spline document in the output: 2
+    // numbers per lon/lat control point, the interior knots unless uniform, the degree.
+    let from_document = |out: &Value, uniform: bool| {
+        let spline = &out["properties"]["fit"]["spline"];
+        let n = spline["control_points"].as_array().unwrap().len();
+        let knots = spline["knots"].as_array().unwrap();
+        let p = spline["degree"].as_u64().unwrap() as usize;
+        assert_eq!(knots.len(), n + p + 1);
+        assert_eq!(knots[0].as_f64(), Some(0.0));
+        assert_eq!(knots[knots.len() - 1].as_f64(), Some(1.0));
+        if uniform {
+            for (i, k) in knots[p + 1..n].iter().enumerate() {
+                assert_eq!(k.as_f64(), Some((i + 1) as f64 / (n - p) as f64));
+            }
+        }
+        let interior = knots.len() - 2 * (p + 1);
+        (n, p, 2 * n + if uniform { 0 } else { interior } + 1)
+    };
+    for tolerance_m in [100.0, 5.0] {
+        let job = Job {
+            operation: Operation::FitToTolerance {
+                options: FitOptions::default(),
+                tolerance_m,
+            },
+            ..Job::fit(FitOptions::default())
+        };
+        job.validate().unwrap();
+        let t = process_feature(feature, "", &job).unwrap();
+        let fit_doc = &t.feature["properties"]["fit"];
+        let uniform = fit_doc["knot_rule"] == "uniform";
+        let (n, p, expected) = from_document(&t.feature, uniform);
+        assert_eq!(t.stats.stored_numbers, expected, "{tolerance_m} m");
+        assert_eq!(fit_doc["stored_numbers"].as_u64(), Some(expected as u64));
+
+        // The same degree, control points and knot placement through a plain fit.
+        let knots = if uniform {
+            KnotPlacement::Uniform
+        } else {
+            KnotPlacement::Geodesic
+        };
+        let options = FitOptions::default()
+            .with_control_points(n)
+            .with_degree(p)
+            .with_knots(knots);
+        let f = process_feature(feature, "", &Job::fit(options)).unwrap();
+        let (_, _, fit_expected) = from_document(&f.feature, uniform);
+        assert_eq!(f.stats.stored_numbers, fit_expected, "{tolerance_m} m");
+        assert_eq!(
+            f.stats.stored_numbers, t.stats.stored_numbers,
+            "{tolerance_m} m"
+        );
     }
 }

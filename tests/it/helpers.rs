@@ -1,6 +1,7 @@
 //! Helpers shared by the integration tests: fixture access, running the binary, deterministic
 //! pseudo-random numbers, unit vectors, knot vectors and known splines to sample from.
 
+pub use spherefit::sphere::bspline::clamped_uniform_knots;
 use spherefit::sphere::point::{exp_map, PointSet};
 use spherefit::sphere::SphericalBSpline;
 use std::io::Write;
@@ -145,15 +146,6 @@ pub fn max_norm_deviation(points: &PointSet) -> f64 {
         .iter()
         .map(|v| (norm(v) - 1.0).abs())
         .fold(0.0, f64::max)
-}
-
-/// The clamped uniform knot vector on [0, 1] for `n` control points of degree `p`.
-pub fn clamped_uniform_knots(n: usize, p: usize) -> Vec<f64> {
-    let m = n - p;
-    let mut k = vec![0.0; p + 1];
-    k.extend((1..m).map(|i| i as f64 / m as f64));
-    k.extend(std::iter::repeat_n(1.0, p + 1));
-    k
 }
 
 /// A random walk of `n` unit vectors in R^dim: each step goes `step_rad` (times a factor in

@@ -7,6 +7,7 @@ mod cli_batch;
 mod cli_sphere;
 mod earth;
 mod helpers;
+mod hostile;
 mod http;
 mod http_openapi;
 mod http_port;

@@ -1,4 +1,4 @@
-//! Fitting to a tolerance (issue 7): on every fixture line and at 1, 5, 25, 100 and 500 m, a fit
+//! Fitting to a tolerance: on every fixture line and at 1, 5, 25, 100 and 500 m, a fit
 //! that reports `tolerance_met` really is within the tolerance, by its own metrics and by an
 //! independent recomputation from the curve rebuilt out of its stored numbers (the two-way
 //! distance is recomputed independently in `two_way.rs`).

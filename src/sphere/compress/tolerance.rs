@@ -76,14 +76,14 @@ use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
 };
 use crate::sphere::curve::bspline::{
-    with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
+    clamped_uniform_knots, with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
 };
 use crate::sphere::fit::knots::{
     greville_control_points, normalize_parameters, parameters, Parameterization,
 };
 use crate::sphere::fit::metrics::{measure, ErrorMetrics};
 use crate::sphere::geometry::point::{
-    angle_from_chords, diff_sum_sq, dot, normalize, sinc, slerp, Dim, PointSet,
+    angle, angle_from_chords, diff_sum_sq, dot, exp_in_place, slerp, Dim, PointSet,
     SERIES_ANGLE_MAX_RAD,
 };
 use crate::sphere::linalg::banded::SymmetricBand;
@@ -104,9 +104,13 @@ pub enum KnotRule {
 /// One curve tried while fitting to a tolerance (one per degree and knot strategy).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
+    /// Spline degree.
     pub degree: usize,
+    /// How its knots were placed.
     pub knot_rule: KnotRule,
+    /// Control points of the smallest curve found.
     pub control_points: usize,
+    /// Numbers that curve stores ([`stored_numbers`]).
     pub stored_numbers: usize,
     /// Vertex error (parametric, at the curve's data parameters).
     pub max_error_rad: f64,
@@ -145,6 +149,8 @@ pub struct ToleranceOptions {
     pub seed_factor: f64,
     /// Most control points per curve (default: the number of points).
     pub max_control_points: Option<usize>,
+    /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
+    pub cancel: crate::sphere::cancel::Cancel,
 }
 
 impl Default for ToleranceOptions {
@@ -159,6 +165,7 @@ impl Default for ToleranceOptions {
             adaptive_knots: false,
             seed_factor: 4.0,
             max_control_points: None,
+            cancel: crate::sphere::cancel::Cancel::inherit(),
         }
     }
 }
@@ -302,6 +309,7 @@ pub fn fit_to_tolerance(
         });
     }
     points.check_no_antipodal_neighbours()?;
+    let _scope = options.cancel.enter();
     let (base_params, free) = match params {
         Some(t) => (normalize_parameters(t, n)?, false),
         None => (
@@ -342,7 +350,7 @@ pub fn fit_to_tolerance(
             cap,
             options,
             &degrees,
-        );
+        )?;
         // Fewest stored numbers first among the curves that meet the vertex target.
         let mut order: Vec<usize> = (0..found.len()).collect();
         order.sort_by_key(|&i| stored_numbers(&found[i].0.spline, found[i].0.rule));
@@ -388,7 +396,7 @@ pub fn fit_to_tolerance(
         }
     }
     let met = chosen.is_some();
-    let (curve, metrics, tw) = chosen.or(best_miss).expect("at least one curve was tried");
+    let (curve, metrics, tw) = chosen.or(best_miss).ok_or(SphereError::NoValidFit)?;
     let stored = stored_numbers(&curve.spline, curve.rule);
     let input_numbers = polyline_numbers(n, points.dim());
     Ok(ToleranceFit {
@@ -466,9 +474,10 @@ fn search(
     cap: usize,
     options: &ToleranceOptions,
     degrees: &[usize],
-) -> Vec<(Curve, ErrorMetrics)> {
+) -> Result<Vec<(Curve, ErrorMetrics)>, SphereError> {
     let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
     for &p in degrees {
+        options.cancel.check()?;
         let budget = found
             .iter()
             .filter(|(_, m)| m.max_error_rad <= target)
@@ -493,7 +502,8 @@ fn search(
             }
         }
     }
-    found
+    options.cancel.check()?;
+    Ok(found)
 }
 
 /// The polyline fallbacks, degree 1 on uniform knots (none stored): the Douglas–Peucker
@@ -535,7 +545,7 @@ fn polyline_through(
     let ctrl = PointSet::from_flat_unchecked(dim, coords);
     let m = kept.len();
     if free {
-        let knots = uniform_knots(m, 1);
+        let knots = clamped_uniform_knots(m, 1);
         let mut params = Vec::with_capacity(points.len());
         let mut last: f64 = 0.0;
         for w in 0..m - 1 {
@@ -664,7 +674,9 @@ fn fit_degree<D: Dim, G: Degree>(
                 offer(u, true, &mut out);
             }
         }
-        offer(f.into_curve(KnotRule::Stored), met, &mut out);
+        if let Some(c) = f.into_curve(KnotRule::Stored) {
+            offer(c, met, &mut out);
+        }
     }
     if free && options.uniform_knots && p >= 2 {
         // Only counts that store fewer numbers than the best curve so far can win.
@@ -694,7 +706,7 @@ fn uniform_search<D: Dim, G: Degree>(
         return None;
     }
     let try_count = |n_ctrl: usize| -> Option<Fitter<D, G>> {
-        let knots = uniform_knots(n_ctrl, p);
+        let knots = clamped_uniform_knots(n_ctrl, p);
         let mut f = Fitter::with_knots(d, g, points, base_params.to_vec(), true, knots)?;
         f.correct_all(4);
         f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0);
@@ -709,7 +721,7 @@ fn uniform_search<D: Dim, G: Degree>(
         return None;
     }
     let mut best = Some(top);
-    while lo < hi {
+    while lo < hi && !crate::sphere::cancel::cancelled() {
         let mid = (lo + hi) / 2;
         match try_count(mid) {
             Some(f) if f.max_error() <= target => {
@@ -719,15 +731,7 @@ fn uniform_search<D: Dim, G: Degree>(
             _ => lo = mid + 1,
         }
     }
-    best.map(|f| f.into_curve(KnotRule::Uniform))
-}
-
-fn uniform_knots(n_ctrl: usize, p: usize) -> Vec<f64> {
-    let m = n_ctrl - p;
-    let mut k = vec![0.0; p + 1];
-    k.extend((1..m).map(|i| i as f64 / m as f64));
-    k.extend(std::iter::repeat_n(1.0, p + 1));
-    k
+    best.and_then(|f| f.into_curve(KnotRule::Uniform))
 }
 
 /// The working state of one degree's fit: knots, control points, data parameters and the error
@@ -768,12 +772,6 @@ fn eval_curve<D: Dim, G: Degree, const CONTRIB: bool>(
     let k = frame.span(t);
     frame.eval::<D, G, CONTRIB, false>(d, g, k, t, scratch, out);
     k
-}
-
-#[inline(always)]
-fn angle_of<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
-    let (m2, p2) = diff_sum_sq(d, a, b);
-    angle_from_chords(m2, p2).0
 }
 
 impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
@@ -842,7 +840,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 points,
                 base_params.to_vec(),
                 free,
-                uniform_knots(cap, p),
+                clamped_uniform_knots(cap, p),
             )?;
             if free {
                 f.correct_all(4);
@@ -897,14 +895,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         self.err.iter().fold(0.0, |a, &b| a.max(b))
     }
 
-    fn into_curve(self, rule: KnotRule) -> Curve {
-        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl)
-            .expect("the fitter keeps a valid spline");
-        Curve {
+    /// The fitted spline; `None` when it is not a valid spline (two neighbouring control
+    /// points (nearly) antipodal, as a fit along a great circle can make): that candidate is
+    /// dropped rather than returned.
+    fn into_curve(self, rule: KnotRule) -> Option<Curve> {
+        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl).ok()?;
+        Some(Curve {
             spline,
             params: self.params,
             rule,
-        }
+        })
     }
 
     fn last_span(&self) -> usize {
@@ -949,7 +949,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             &mut self.scratch,
             &mut self.c,
         );
-        angle_of(self.d, self.points.get(j), &self.c)
+        angle(self.d, self.points.get(j), &self.c)
     }
 
     /// Measures points `j0 .. j1` into `err`; returns (max, sum of squares).
@@ -1092,7 +1092,10 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let mut lambda = 0.0;
         let mut saved = vec![0.0; nf * dim];
         for it in 0..iterations {
-            if max <= target || (it >= GIVE_UP_AFTER && max > give_up * target) {
+            if max <= target
+                || (it >= GIVE_UP_AFTER && max > give_up * target)
+                || crate::sphere::cancel::cancelled()
+            {
                 break;
             }
             let mut band = SymmetricBand::zeros(nf, p);
@@ -1220,7 +1223,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     self.err.clone(),
                 ));
             }
-            if max <= target || n >= cap {
+            if max <= target || n >= cap || crate::sphere::cancel::cancelled() {
                 break;
             }
             // Worst out-of-tolerance point per span.
@@ -1308,7 +1311,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         for _ in 0..REMOVAL_SWEEPS {
             let mut removed = 0;
             let mut r = p + 1;
-            while r < self.n_ctrl() {
+            while r < self.n_ctrl() && !crate::sphere::cancel::cancelled() {
                 if self.try_remove(r, target) {
                     removed += 1;
                 } else {
@@ -1369,7 +1372,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     fn to_uniform(&self, target: f64) -> Option<Curve> {
         let p = self.p();
         let n = self.n_ctrl();
-        let knots = uniform_knots(n, p);
+        let knots = clamped_uniform_knots(n, p);
         let last = self.last_span();
         let params: Vec<f64> = self
             .params
@@ -1407,26 +1410,19 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 .refit(0, n, 3 * REFIT_ITERATIONS, target)
                 .max(f.max_error());
         }
-        (max <= target).then(|| f.into_curve(KnotRule::Uniform))
+        if max <= target {
+            f.into_curve(KnotRule::Uniform)
+        } else {
+            None
+        }
     }
 }
 
 /// `P ← exp_P(v)` with `v` projected onto the tangent plane at P.
 fn move_along_geodesic<D: Dim>(d: D, pt: &mut [f64], v: &[f64]) {
-    let dim = d.get();
     let along = dot(d, pt, v);
-    let mut len2 = 0.0;
-    for x in 0..dim {
-        let t = v[x] - along * pt[x];
-        len2 += t * t;
-    }
-    let len = len2.sqrt();
-    let (c, s) = (len.cos(), sinc(len));
-    for x in 0..dim {
-        let t = v[x] - along * pt[x];
-        pt[x] = c * pt[x] + s * t;
-    }
-    normalize(d, pt);
+    let t: Vec<f64> = (0..d.get()).map(|x| v[x] - along * pt[x]).collect();
+    exp_in_place(d, pt, &t);
 }
 
 #[cfg(test)]
@@ -1453,7 +1449,7 @@ mod tests {
     #[test]
     fn stored_numbers_count_control_points_knots_and_the_degree() {
         let pts = wave(50, 0.01, 3);
-        let knots = uniform_knots(6, 3);
+        let knots = clamped_uniform_knots(6, 3);
         let ctrl = greville_control_points(
             &pts,
             &parameters(&pts, Parameterization::Chord).unwrap(),

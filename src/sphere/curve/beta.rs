@@ -20,7 +20,7 @@
 //! The curve is G1 at every joint (Theorem 1). With `beta1 = 1, beta2 = 0` the legs are cut in
 //! thirds and the ends have zero second derivative: in the small-data limit it is the natural
 //! C2 cubic interpolating spline with uniform parameters.
-//! Hot loops are generic over [`Dim`], so S^2 runs on `Fixed<3>`.
+//! Hot loops are generic over `Dim`, so S^2 runs on `Fixed<3>`.
 
 use crate::sphere::curve::bezier::{de_casteljau, SphericalBezier};
 use crate::sphere::curve::SphericalCurve;
@@ -184,6 +184,12 @@ impl SphericalBetaSpline {
     /// `beta2` at every point (tension).
     pub fn beta2(&self) -> &[f64] {
         &self.beta2
+    }
+
+    /// Numbers needed to rebuild the curve: `dim − 1` per Bézier control point (a joint shared
+    /// by two segments counted once) and both shape parameters at every point.
+    pub fn stored_numbers(&self) -> usize {
+        (self.dim() - 1) * self.control.len() + self.beta1.len() + self.beta2.len()
     }
 
     /// Number of cubic segments (points - 1).
@@ -428,6 +434,7 @@ pub(crate) fn build_control<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sphere::geometry::point::angle_between;
     use crate::sphere::interpolate::beta::{interpolate, InterpolationOptions};
     use approx::assert_relative_eq;
 
@@ -444,10 +451,6 @@ mod tests {
             unit([-0.7206, -0.5462, -0.4270]),
         ])
         .unwrap()
-    }
-
-    fn angle_between(a: &[f64], b: &[f64]) -> f64 {
-        crate::sphere::geometry::point::angle_between(a, b)
     }
 
     #[test]

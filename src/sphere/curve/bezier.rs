@@ -6,11 +6,11 @@
 //! `q_n`, and its end velocities are `n` times those of the first and last control arcs
 //! (the paper's Lemma 2): this is what makes the Beta-spline's joints G1.
 //!
-//! The kernel (`de_casteljau`) is generic over [`Dim`], so the Beta-spline's S^2 path runs on
+//! The kernel (`de_casteljau`) is generic over `Dim`, so the Beta-spline's S^2 path runs on
 //! `Fixed<3>` while S^14 uses the same code with a runtime length.
 
 use super::SphericalCurve;
-use crate::sphere::geometry::point::{normalize, sinc, Arc, Dim, Dynamic, PointSet};
+use crate::sphere::geometry::point::{log_into, normalize, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use rayon::prelude::*;
 
@@ -219,18 +219,6 @@ pub(crate) fn de_casteljau<D: Dim>(
     let apex = &mut tri[..dim];
     normalize(d, apex);
     out[..dim].copy_from_slice(apex);
-}
-
-/// The logarithm map at `base` towards `p` (tangent, length = angle in radians) into `out`.
-/// Never fails: at the antipode (which callers rule out) the direction collapses to zero.
-#[inline(always)]
-pub(crate) fn log_into<D: Dim>(d: D, base: &[f64], p: &[f64], out: &mut [f64]) {
-    let arc = Arc::between(d, base, p);
-    // v = p - cos θ base has length sin θ; scale it to θ.
-    let scale = 1.0 / sinc(arc.theta).max(1e-300);
-    for c in 0..d.get() {
-        out[c] = (p[c] - arc.cos_theta * base[c]) * scale;
-    }
 }
 
 #[cfg(test)]

@@ -65,6 +65,16 @@ macro_rules! with_degree {
 }
 pub(crate) use with_degree;
 
+/// The clamped uniform knot vector on [0, 1] for `n_ctrl` control points of degree `p`: `p + 1`
+/// zeros, `i / (n_ctrl − p)` for `i` in `1..n_ctrl − p`, `p + 1` ones. Needs `n_ctrl > p`.
+pub fn clamped_uniform_knots(n_ctrl: usize, p: usize) -> Vec<f64> {
+    let m = n_ctrl - p;
+    let mut k = vec![0.0; p + 1];
+    k.extend((1..m).map(|i| i as f64 / m as f64));
+    k.extend(std::iter::repeat_n(1.0, p + 1));
+    k
+}
+
 /// A clamped spherical B-spline curve on S^n.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SphericalBSpline {
@@ -108,6 +118,12 @@ impl SphericalBSpline {
             knots,
             control,
         })
+    }
+
+    /// Whether the knot vector is [`clamped_uniform_knots`] for this degree and control-point
+    /// count, so that it need not be stored.
+    pub fn has_clamped_uniform_knots(&self) -> bool {
+        self.knots == clamped_uniform_knots(self.control.len(), self.degree)
     }
 
     /// Polynomial degree p.
@@ -327,6 +343,23 @@ fn validate_knots(p: usize, n: usize, knots: &[f64]) -> Result<(), SphereError> 
     if knots[p] >= knots[n] {
         return bad("the domain [knot p, knot n] is empty".to_string());
     }
+    // Spans that over- or underflow make the basis functions NaN: refuse them here rather
+    // than return points that are not numbers.
+    if !(knots[n] - knots[p]).is_finite() {
+        return bad(format!(
+            "the domain [knot {p}, knot {n}] is wider than the largest finite number: rescale the knots"
+        ));
+    }
+    if let Some(i) = (p..n).find(|&i| {
+        let s = knots[i + 1] - knots[i];
+        s > 0.0 && !s.is_normal()
+    }) {
+        return bad(format!(
+            "knot {}: the span from knot {i} ({:e}) is below the smallest normal number (about 2.2e-308): rescale the knots",
+            i + 1,
+            knots[i + 1] - knots[i]
+        ));
+    }
     let mut run = 1;
     for i in p + 2..n {
         run = if knots[i] == knots[i - 1] { run + 1 } else { 1 };
@@ -543,20 +576,11 @@ mod tests {
         PointSet::try_from_rows(&rows).unwrap()
     }
 
-    fn clamped_uniform(n: usize, p: usize) -> Vec<f64> {
-        let mut k = vec![0.0; p + 1];
-        for i in 1..n - p {
-            k.push(i as f64 / (n - p) as f64);
-        }
-        k.extend(std::iter::repeat_n(1.0, p + 1));
-        k
-    }
-
     #[test]
     fn clamped_ends_interpolate() {
         for p in 1..=MAX_DEGREE {
             let cp = circle_points(8, 1.5);
-            let s = SphericalBSpline::try_new(p, clamped_uniform(8, p), cp.clone()).unwrap();
+            let s = SphericalBSpline::try_new(p, clamped_uniform_knots(8, p), cp.clone()).unwrap();
             let a = s.evaluate(0.0);
             let b = s.evaluate(1.0);
             for c in 0..3 {
@@ -569,7 +593,7 @@ mod tests {
     #[test]
     fn contributions_reproduce_the_point_exactly() {
         let cp = circle_points(9, 2.5);
-        let s = SphericalBSpline::try_new(3, clamped_uniform(9, 3), cp.clone()).unwrap();
+        let s = SphericalBSpline::try_new(3, clamped_uniform_knots(9, 3), cp.clone()).unwrap();
         for i in 0..=50 {
             let t = i as f64 / 50.0;
             let c = s.contributions(t);
@@ -620,7 +644,7 @@ mod tests {
     #[test]
     fn span_lookup_handles_ends_and_hints() {
         let cp = circle_points(6, 1.0);
-        let knots = clamped_uniform(6, 3);
+        let knots = clamped_uniform_knots(6, 3);
         let f = Frame::new(3, &knots, &cp);
         assert_eq!(f.span(-1.0), 3);
         assert_eq!(f.span(0.0), 3);

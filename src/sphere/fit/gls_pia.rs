@@ -102,6 +102,8 @@ pub struct FitOptions {
     pub step: StepRule,
     /// The optimiser.
     pub solver: Solver,
+    /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
+    pub cancel: crate::sphere::cancel::Cancel,
 }
 
 impl Default for FitOptions {
@@ -117,6 +119,7 @@ impl Default for FitOptions {
             stagnation: DEFAULT_STAGNATION,
             step: StepRule::DengLin,
             solver: Solver::GlsPia,
+            cancel: crate::sphere::cancel::Cancel::inherit(),
         }
     }
 }
@@ -178,7 +181,9 @@ pub fn default_control_points(n: usize, p: usize) -> usize {
 /// Max and mean error of one iteration's curve (index 0 of a history is the initial curve).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IterationError {
+    /// Largest geodesic error, radians.
     pub max_error_rad: f64,
+    /// Mean geodesic error, radians.
     pub mean_error_rad: f64,
 }
 
@@ -273,10 +278,12 @@ pub fn fit(
     }
     let initial = greville_control_points(points, &params, &knots, p)?;
     let spline = SphericalBSpline::try_new(p, knots, initial)?;
-    Ok(match options.solver {
+    let report = match options.solver {
         Solver::GlsPia => gls_pia(spline, points, params, options),
         Solver::GaussNewton => super::gauss_newton::gauss_newton(spline, points, params, options),
-    })
+    };
+    options.cancel.check()?;
+    Ok(report)
 }
 
 /// Runs GLS-PIA from `spline` (its knots are kept) on points with known parameters.
@@ -323,7 +330,7 @@ pub fn gls_pia(
             converged = true;
             break;
         }
-        if mode == PassMode::Measure {
+        if mode == PassMode::Measure || options.cancel.is_cancelled() {
             break;
         }
         last_rms = m.rms_error_rad;

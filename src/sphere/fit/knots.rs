@@ -10,6 +10,7 @@
 //! * Initial control points: the data polyline (SLERP between neighbours) at the Greville
 //!   abscissae of the knots (§4.3).
 
+use crate::sphere::curve::bspline::clamped_uniform_knots;
 use crate::sphere::geometry::point::{dot, normalize, slerp, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};
@@ -138,6 +139,9 @@ pub fn normalize_parameters(given: &[f64], count: usize) -> Result<Vec<f64>, Sph
     if b <= a {
         return bad("all parameters are equal: they span no interval".to_string());
     }
+    if !(b - a).is_finite() {
+        return bad("the parameters span more than the largest finite number: rescale them".into());
+    }
     let mut t: Vec<f64> = given.iter().map(|x| (x - a) / (b - a)).collect();
     let last = t.len() - 1;
     t[last] = 1.0;
@@ -178,8 +182,7 @@ pub fn place_knots(
 }
 
 fn uniform_interior(n_ctrl: usize, p: usize) -> Vec<f64> {
-    let m = n_ctrl - p;
-    (1..m).map(|i| i as f64 / m as f64).collect()
+    clamped_uniform_knots(n_ctrl, p)[p + 1..n_ctrl].to_vec()
 }
 
 /// Clamped knots around `interior` (values in (0, 1)), spread so that no two are closer than

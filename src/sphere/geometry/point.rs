@@ -2,8 +2,8 @@
 //!
 //! # Representation
 //! Points are stored flat (`PointSet`: one `Vec<f64>` with a runtime dimension), and the kernels
-//! are generic over a [`Dim`] that is either a compile-time constant ([`Fixed`]) or a runtime
-//! value ([`Dynamic`]). The dimension is chosen once at the edge ([`with_dim!`](crate::with_dim)),
+//! are generic over a `Dim` that is either a compile-time constant (`Fixed`) or a runtime
+//! value (`Dynamic`). The dimension is chosen once at the edge (`with_dim!`),
 //! so the S^2 and S^3 hot paths see `Fixed<3>` / `Fixed<4>`: slice lengths are constants, loops
 //! unroll and bounds checks vanish, while S^14 or S^127 run the same code with a runtime length.
 //! One implementation serves every dimension; `benches/sphere.rs` measures the fixed path against
@@ -24,20 +24,20 @@ pub const ANTIPODAL_MARGIN_RAD: f64 = 1e-6;
 /// is about theta^2 / 6 < 1e-17, below rounding, and it avoids 0/0 for identical points.
 pub const SMALL_ANGLE_RAD: f64 = 1e-8;
 
-/// Arcs up to this angle take the polynomial path in [`Arc::between`] and [`Arc::weights`]:
+/// Arcs up to this angle take the polynomial path in `Arc::between` and `Arc::weights`:
 /// truncated Taylor series of sin(x)/x (to x^12) and asin (to z^17) whose first omitted term is
 /// below 1e-17 relative for |x| <= 0.25. In de Boor's triangle neighbouring points are almost
 /// always this close, and the series are several times cheaper than libm's atan2 and sin_cos
 /// (`benches/sphere.rs`). Larger arcs use libm.
-pub const SERIES_ANGLE_MAX_RAD: f64 = 0.25;
+pub(crate) const SERIES_ANGLE_MAX_RAD: f64 = 0.25;
 
 /// (2 sin(SERIES_ANGLE_MAX_RAD / 2))^2: the squared chord of the largest series arc.
 const SERIES_CHORD_SQ_MAX: f64 = 0.062_175_156_578_710_436;
 
-/// Arcs up to this angle use the short series ([`sinc_series_short`], [`asinc_series_short`]):
+/// Arcs up to this angle use the short series (`sinc_series_short`, `asinc_series_short`):
 /// their first omitted terms are below 1e-19 relative here. Typical neighbouring control points
 /// of a dense fit are 1e-4 to 1e-2 rad apart.
-pub const SHORT_SERIES_ANGLE_MAX_RAD: f64 = 0.02;
+pub(crate) const SHORT_SERIES_ANGLE_MAX_RAD: f64 = 0.02;
 
 /// (2 sin(SHORT_SERIES_ANGLE_MAX_RAD / 2))^2.
 const SHORT_SERIES_CHORD_SQ_MAX: f64 = 3.999_866_668_444_4e-4;
@@ -45,7 +45,7 @@ const SHORT_SERIES_CHORD_SQ_MAX: f64 = 3.999_866_668_444_4e-4;
 /// sin(x)/x for |x| <= [`SHORT_SERIES_ANGLE_MAX_RAD`]: Taylor series through x^6 (the omitted
 /// x^8/9! term is < 1e-19 there).
 #[inline(always)]
-pub fn sinc_series_short(x: f64) -> f64 {
+pub(crate) fn sinc_series_short(x: f64) -> f64 {
     let y = x * x;
     1.0 + y * (-1.0 / 6.0 + y * (1.0 / 120.0 + y * (-1.0 / 5040.0)))
 }
@@ -53,7 +53,7 @@ pub fn sinc_series_short(x: f64) -> f64 {
 /// asin(z)/z for 0 <= z <= sin(SHORT_SERIES_ANGLE_MAX_RAD / 2): Taylor series through z^6
 /// (the omitted term is < 1e-18 relative there).
 #[inline(always)]
-pub fn asinc_series_short(z: f64) -> f64 {
+pub(crate) fn asinc_series_short(z: f64) -> f64 {
     let y = z * z;
     1.0 + y * (1.0 / 6.0 + y * (3.0 / 40.0 + y * (5.0 / 112.0)))
 }
@@ -61,7 +61,7 @@ pub fn asinc_series_short(z: f64) -> f64 {
 /// sin(x)/x for |x| <= [`SERIES_ANGLE_MAX_RAD`]: Taylor series through x^12 (the omitted
 /// x^14/15! term is < 1e-17 there).
 #[inline(always)]
-pub fn sinc_series(x: f64) -> f64 {
+pub(crate) fn sinc_series(x: f64) -> f64 {
     let y = x * x;
     1.0 + y
         * (-1.0 / 6.0
@@ -74,7 +74,7 @@ pub fn sinc_series(x: f64) -> f64 {
 /// asin(z)/z for 0 <= z <= sin(SERIES_ANGLE_MAX_RAD / 2): Taylor series through z^16 (the
 /// omitted term is < 1e-18 relative there).
 #[inline(always)]
-pub fn asinc_series(z: f64) -> f64 {
+pub(crate) fn asinc_series(z: f64) -> f64 {
     let y = z * z;
     1.0 + y
         * (1.0 / 6.0
@@ -89,7 +89,7 @@ pub fn asinc_series(z: f64) -> f64 {
 /// The geodesic angle between two unit vectors from their squared chord `|a - b|^2` and squared
 /// sum `|a + b|^2`, and the factor `angle / |a - b|` (1 when they coincide).
 #[inline(always)]
-pub fn angle_from_chords(m2: f64, p2: f64) -> (f64, f64) {
+pub(crate) fn angle_from_chords(m2: f64, p2: f64) -> (f64, f64) {
     let m = m2.sqrt();
     if m2 <= SHORT_SERIES_CHORD_SQ_MAX {
         let ratio = asinc_series_short(0.5 * m);
@@ -105,14 +105,14 @@ pub fn angle_from_chords(m2: f64, p2: f64) -> (f64, f64) {
 }
 
 /// The ambient dimension of the points a kernel works on (S^n lives in R^(n+1)).
-pub trait Dim: Copy + Send + Sync + 'static {
+pub(crate) trait Dim: Copy + Send + Sync + 'static {
     /// Number of coordinates per point.
     fn get(self) -> usize;
 }
 
 /// A dimension known at compile time: the fast path for S^2 (`Fixed<3>`) and S^3 (`Fixed<4>`).
 #[derive(Clone, Copy, Debug, Default)]
-pub struct Fixed<const N: usize>;
+pub(crate) struct Fixed<const N: usize>;
 
 impl<const N: usize> Dim for Fixed<N> {
     #[inline(always)]
@@ -123,7 +123,7 @@ impl<const N: usize> Dim for Fixed<N> {
 
 /// A dimension known only at run time, for any S^n.
 #[derive(Clone, Copy, Debug)]
-pub struct Dynamic(pub usize);
+pub(crate) struct Dynamic(pub(crate) usize);
 
 impl Dim for Dynamic {
     #[inline(always)]
@@ -132,9 +132,8 @@ impl Dim for Dynamic {
     }
 }
 
-/// Runs `$body` with `$d` bound to the fastest [`Dim`] for `$dim`: `Fixed<3>`, `Fixed<4>` or
+/// Runs `$body` with `$d` bound to the fastest `Dim` for `$dim`: `Fixed<3>`, `Fixed<4>` or
 /// `Dynamic`. This is the one place where the dimension is dispatched.
-#[macro_export]
 macro_rules! with_dim {
     ($dim:expr, |$d:ident| $body:expr) => {{
         match $dim {
@@ -153,10 +152,11 @@ macro_rules! with_dim {
         }
     }};
 }
+pub(crate) use with_dim;
 
 /// Dot product of the first `d` coordinates.
 #[inline(always)]
-pub fn dot<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn dot<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
     let (a, b) = (&a[..d.get()], &b[..d.get()]);
     let mut s = 0.0;
     for k in 0..d.get() {
@@ -167,7 +167,7 @@ pub fn dot<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
 
 /// Squared Euclidean norm of `a - b` and of `a + b`, in one pass.
 #[inline(always)]
-pub fn diff_sum_sq<D: Dim>(d: D, a: &[f64], b: &[f64]) -> (f64, f64) {
+pub(crate) fn diff_sum_sq<D: Dim>(d: D, a: &[f64], b: &[f64]) -> (f64, f64) {
     let (a, b) = (&a[..d.get()], &b[..d.get()]);
     let (mut m, mut p) = (0.0, 0.0);
     for k in 0..d.get() {
@@ -180,7 +180,7 @@ pub fn diff_sum_sq<D: Dim>(d: D, a: &[f64], b: &[f64]) -> (f64, f64) {
 
 /// Geometry of a pair of unit vectors, computed once and reused by SLERP.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Arc {
+pub(crate) struct Arc {
     /// Geodesic angle in radians, in [0, pi].
     pub theta: f64,
     /// sin(theta), from the chord lengths (accurate at both ends of [0, pi]).
@@ -300,7 +300,7 @@ impl Arc {
 
 /// Geodesic distance (angle in radians) between unit vectors `a` and `b`.
 #[inline]
-pub fn angle<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn angle<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
     let (m2, p2) = diff_sum_sq(d, a, b);
     angle_from_chords(m2, p2).0
 }
@@ -313,7 +313,7 @@ pub fn angle_between(a: &[f64], b: &[f64]) -> f64 {
 
 /// `out = w0 a + w1 b`.
 #[inline(always)]
-pub fn combine<D: Dim>(d: D, out: &mut [f64], w0: f64, a: &[f64], w1: f64, b: &[f64]) {
+pub(crate) fn combine<D: Dim>(d: D, out: &mut [f64], w0: f64, a: &[f64], w1: f64, b: &[f64]) {
     let (out, a, b) = (&mut out[..d.get()], &a[..d.get()], &b[..d.get()]);
     for k in 0..d.get() {
         out[k] = w0 * a[k] + w1 * b[k];
@@ -322,7 +322,7 @@ pub fn combine<D: Dim>(d: D, out: &mut [f64], w0: f64, a: &[f64], w1: f64, b: &[
 
 /// Normalises `v` in place and returns its former norm.
 #[inline(always)]
-pub fn normalize<D: Dim>(d: D, v: &mut [f64]) -> f64 {
+pub(crate) fn normalize<D: Dim>(d: D, v: &mut [f64]) -> f64 {
     let v = &mut v[..d.get()];
     let n = dot(d, v, v).sqrt();
     if n > 0.0 {
@@ -394,13 +394,33 @@ pub fn log_map(base: &[f64], p: &[f64]) -> Result<Vec<f64>, SphereError> {
             angle_rad: arc.theta,
         });
     }
-    // v = p − cosθ·base has length sinθ; scale to θ.
-    let scale = 1.0 / sinc(arc.theta);
-    Ok(base
-        .iter()
-        .zip(p)
-        .map(|(b, q)| (q - arc.cos_theta * b) * scale)
-        .collect())
+    let mut out = vec![0.0; base.len()];
+    log_into(d, base, p, &mut out);
+    Ok(out)
+}
+
+/// The logarithm map at `base` towards `p` (tangent, length = angle in radians) into `out`.
+/// Never fails: at the antipode (which callers rule out) the direction collapses to zero.
+#[inline(always)]
+pub(crate) fn log_into<D: Dim>(d: D, base: &[f64], p: &[f64], out: &mut [f64]) {
+    let arc = Arc::between(d, base, p);
+    // v = p - cos θ base has length sin θ; scale it to θ.
+    let scale = 1.0 / sinc(arc.theta).max(1e-300);
+    for c in 0..d.get() {
+        out[c] = (p[c] - arc.cos_theta * base[c]) * scale;
+    }
+}
+
+/// `p ← exp_p(t)`: walks from unit vector `p` along `t` (tangent at `p`) for `|t|` radians, in
+/// place. The one exponential map: [`exp_map`] and the solvers' control-point moves use it.
+#[inline]
+pub(crate) fn exp_in_place<D: Dim>(d: D, p: &mut [f64], t: &[f64]) {
+    let len = dot(d, t, t).sqrt();
+    let (c, s) = (len.cos(), sinc(len));
+    for x in 0..d.get() {
+        p[x] = c * p[x] + s * t[x];
+    }
+    normalize(d, p);
 }
 
 /// Exponential map: walks from `base` along tangent vector `v` for `|v|` radians.
@@ -410,10 +430,8 @@ pub fn exp_map(base: &[f64], v: &[f64]) -> Result<Vec<f64>, SphereError> {
     let d = Dynamic(base.len());
     let along = dot(d, base, v);
     let t: Vec<f64> = v.iter().zip(base).map(|(x, b)| x - along * b).collect();
-    let len = dot(d, &t, &t).sqrt();
-    let (c, s) = (len.cos(), sinc(len));
-    let mut out: Vec<f64> = base.iter().zip(&t).map(|(b, x)| c * b + s * x).collect();
-    normalize(d, &mut out);
+    let mut out = base.to_vec();
+    exp_in_place(d, &mut out, &t);
     Ok(out)
 }
 

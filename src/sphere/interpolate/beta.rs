@@ -38,11 +38,10 @@
 //!   is met only by a correction growing geometrically along the curve, and interpolation of
 //!   more than a few dozen points fails. Use beta1 to shape a few joints, not as a global bias.
 //!
-//! Hot loops are generic over [`Dim`], so S^2 runs on `Fixed<3>`.
+//! Hot loops are generic over `Dim`, so S^2 runs on `Fixed<3>`.
 
 use crate::sphere::curve::beta::{build_control, eval_joint, Fractions};
-use crate::sphere::curve::bezier::log_into;
-use crate::sphere::geometry::point::{angle, normalize, Arc, Dim, Dynamic, PointSet};
+use crate::sphere::geometry::point::{angle, log_into, normalize, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::linalg::band_lu::BandLu;
 use crate::sphere::SphereError;
 use rayon::prelude::*;
@@ -112,6 +111,8 @@ pub struct InterpolationOptions {
     pub max_iterations: Option<usize>,
     /// Largest accepted angle between the curve at parameter j and point j, radians.
     pub tolerance_rad: f64,
+    /// Stops the solver (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
+    pub cancel: crate::sphere::cancel::Cancel,
 }
 
 impl Default for InterpolationOptions {
@@ -122,6 +123,7 @@ impl Default for InterpolationOptions {
             solver: BetaSolver::Newton,
             max_iterations: None,
             tolerance_rad: INTERPOLATION_TOLERANCE_RAD,
+            cancel: crate::sphere::cancel::Cancel::inherit(),
         }
     }
 }
@@ -218,6 +220,7 @@ pub fn interpolate(
         BetaSolver::Newton => DEFAULT_NEWTON_ITERATIONS,
         _ => DEFAULT_FIXED_POINT_ITERATIONS,
     });
+    let scope = options.cancel.enter();
     let (aux, iterations) = crate::with_dim!(points.dim(), |d| solve(
         d,
         points,
@@ -225,6 +228,8 @@ pub fn interpolate(
         options.solver,
         max_iterations
     ));
+    drop(scope);
+    options.cancel.check()?;
     let auxiliary = PointSet::from_flat_unchecked(points.dim(), aux);
     let control = crate::with_dim!(points.dim(), |d| build_control(d, &auxiliary, &fr))?;
     let spline = SphericalBetaSpline::from_parts(beta1, beta2, control);
@@ -355,7 +360,10 @@ fn solve<D: Dim>(
     let mut since_best = 0;
     let mut iterations = 0;
     let mut newton = None;
-    while iterations < max_iterations && best_max > SOLVER_TARGET_RAD {
+    while iterations < max_iterations
+        && best_max > SOLVER_TARGET_RAD
+        && !crate::sphere::cancel::cancelled()
+    {
         iterations += 1;
         match solver {
             BetaSolver::Newton => {

@@ -21,11 +21,6 @@ impl SymmetricBand {
         }
     }
 
-    /// Order N.
-    pub fn n(&self) -> usize {
-        self.n
-    }
-
     /// Element (i, j) with |i - j| <= bw.
     #[inline(always)]
     pub fn get(&self, i: usize, j: usize) -> f64 {

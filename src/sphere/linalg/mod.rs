@@ -2,4 +2,4 @@
 //! general band matrices and their pivoted LU factor.
 
 pub(crate) mod band_lu;
-pub mod banded;
+pub(crate) mod banded;
