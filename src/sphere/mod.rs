@@ -16,7 +16,7 @@ pub(crate) mod linalg;
 #[doc(hidden)]
 pub use crate::document;
 pub use certify::{bounds, dense, two_way};
-pub use compress::{simplify, tolerance};
+pub use compress::{coding, optimal, simplify, tolerance};
 pub use curve::{bezier, bspline};
 pub use fit::{knots, metrics};
 pub use geometry::point;
