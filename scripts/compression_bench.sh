@@ -1,12 +1,16 @@
 #!/usr/bin/env bash
-# The compression bench of issue 7: numbers stored by fit_to_tolerance and by a spherical
-# Douglas–Peucker at the same max geodesic error (1, 5, 25, 100, 500 m), and the time of each,
-# for the US–Mexico 10m border, the GPS tracks in fixtures/ and synthetic smooth tracks.
+# The compression bench of issues 7 and 15: numbers and bytes stored by fit_to_tolerance, a spherical
+# Douglas–Peucker and the optimal subset polyline at the same tolerance (1, 5, 25, 100, 500 m),
+# their certified two-way distances to the line, and the time of each,
+# for the US–Mexico borders, the GPS tracks in fixtures/ and synthetic lines.
 #
 #   scripts/compression_bench.sh              # the markdown table
+#   scripts/compression_bench.sh --noisy-points 16000   # the noisy track at the length of issue 15
 #   scripts/compression_bench.sh --ablation   # stored numbers with each idea switched off
 #
 # Times are wall clock on one thread of whatever machine runs it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo run --quiet --release --example compression -- "$@"
+cargo build --quiet --release --example compression
+# One thread: the two-way checks would otherwise use every core, and the times are per core.
+RAYON_NUM_THREADS="${RAYON_NUM_THREADS:-1}" target/release/examples/compression "$@"

@@ -517,6 +517,69 @@ pub fn subset_within(points: &PointSet, kept: &[usize], tolerance_rad: f64) -> b
     })
 }
 
+/// A subset polyline (`kept`: ascending indices, ends included, such as [`optimal_subset`] or
+/// [`douglas_peucker`](super::simplify::douglas_peucker) return) as what the certified two-way
+/// distance measures: a degree-1 spline through the kept points on uniform knots (none stored,
+/// [`KnotRule::Uniform`](super::tolerance::KnotRule)), and each input point's parameter at the
+/// foot of its perpendicular on the segment that spans it (clamped to the segment, then kept
+/// non-decreasing, the ends at 0 and 1): the ordered matching of
+/// [`two_way_distance`](crate::sphere::two_way::two_way_distance).
+///
+/// # Errors
+/// From [`SphericalBSpline::try_new`](crate::sphere::SphericalBSpline::try_new): fewer than 2
+/// kept points or (nearly) antipodal kept neighbours.
+///
+/// # Panics
+/// If `kept` does not start at 0, end at the last point and increase.
+pub fn subset_curve(
+    points: &PointSet,
+    kept: &[usize],
+) -> Result<(crate::sphere::SphericalBSpline, Vec<f64>), crate::sphere::SphereError> {
+    let n = points.len();
+    assert!(
+        kept.first() == Some(&0)
+            && kept.last() == Some(&(n - 1))
+            && kept.windows(2).all(|w| w[0] < w[1]),
+        "kept indices run from 0 to the last point, increasing"
+    );
+    let dim = points.dim();
+    let mut coords = Vec::with_capacity(kept.len() * dim);
+    for &i in kept {
+        coords.extend_from_slice(points.get(i));
+    }
+    let m = kept.len();
+    let ctrl = PointSet::from_flat_unchecked(dim, coords);
+    let spline = crate::sphere::SphericalBSpline::try_new(
+        1,
+        crate::sphere::curve::bspline::clamped_uniform_knots(m, 1),
+        ctrl,
+    )?;
+    let mut params = Vec::with_capacity(n);
+    params.push(0.0);
+    let mut last: f64 = 0.0;
+    crate::with_dim!(dim, |d| {
+        for w in 0..m - 1 {
+            let frame = ArcFrame::new(d, points.get(kept[w]), points.get(kept[w + 1]));
+            for j in kept[w] + 1..=kept[w + 1] {
+                let frac = if j == kept[w + 1] {
+                    1.0
+                } else if frame.degenerate() {
+                    0.0
+                } else {
+                    let q = points.get(j);
+                    let phi = dot(d, q, &frame.e2).atan2(dot(d, q, &frame.e1));
+                    (phi / frame.theta).clamp(0.0, 1.0)
+                };
+                let t = ((w as f64 + frac) / (m - 1) as f64).max(last);
+                last = t;
+                params.push(t);
+            }
+        }
+    });
+    params[n - 1] = 1.0;
+    Ok((spline, params))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -694,6 +757,43 @@ mod tests {
         assert_eq!(optimal_subset(&points, f64::NAN), vec![0, 1, 2, 3, 4]);
         let two = PointSet::try_from_rows(&rows[..2]).unwrap();
         assert_eq!(optimal_subset(&two, 1.0), vec![0, 1]);
+    }
+
+    #[test]
+    fn a_subset_curve_is_certified_within_the_tolerance_on_a_forward_line() {
+        use crate::sphere::two_way::{two_way_distance, TwoWayOptions};
+        // A forward-only wiggle (no backtracking): the ordered matching at the feet keeps every
+        // vertex error at its cross-track distance, so the two-way distance meets T.
+        let on = |lon: f64, lat: f64| [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()];
+        let rows: Vec<[f64; 3]> = (0..200)
+            .map(|i| on(i as f64 * 1e-4, 3e-5 * (i as f64 * 0.37).sin()))
+            .collect();
+        let points = PointSet::try_from_rows(&rows).unwrap();
+        for tol in [5e-6, 2e-5, 1e-4] {
+            let kept = optimal_subset(&points, tol);
+            let (curve, params) = subset_curve(&points, &kept).unwrap();
+            assert_eq!(curve.control_points().len(), kept.len());
+            assert_eq!((params[0], params[199]), (0.0, 1.0));
+            assert!(params.windows(2).all(|w| w[0] <= w[1]));
+            let options = TwoWayOptions::default().with_precision_rad(1e-7 * tol);
+            let tw = two_way_distance(&curve, &points, &params, &options).unwrap();
+            assert!(!tw.budget_exhausted);
+            // Within T up to the bulge of short arcs (1 + c^2/8) and the rounding slack.
+            assert!(
+                tw.upper_rad <= tol * (1.0 + 1e-6) + 2e-12,
+                "{} > {tol}",
+                tw.upper_rad
+            );
+            assert!(
+                tw.lower_rad > 0.5 * tol,
+                "{} is far below {tol}",
+                tw.lower_rad
+            );
+            // Every kept point sits at its own knot.
+            for (v, &i) in kept.iter().enumerate() {
+                assert!((params[i] - v as f64 / (kept.len() - 1) as f64).abs() < 1e-15);
+            }
+        }
     }
 
     #[test]
