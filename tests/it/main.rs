@@ -5,6 +5,7 @@ mod applications;
 mod beta;
 mod cli_batch;
 mod cli_sphere;
+mod compression;
 mod earth;
 mod helpers;
 mod hostile;
