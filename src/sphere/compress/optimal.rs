@@ -41,9 +41,10 @@
 //! and the sweep stops when two cones are disjoint (also exact).
 //!
 //! # Cost
-//! S^2: O(Σ_i w_i) time and bits of memory, `w_i` the sweep length from `i` (how far the
-//! wedge stays open: about the longest shortcut from `i`), O(n²) for a line that is straight
-//! within `T`. S^n, n > 2: O(Σ_i w_i²).
+//! S^2: O(Σ_i w_i) time, `w_i` the sweep length from `i` (how far the wedge stays open: about
+//! the longest shortcut from `i`), so O(n²) only for a line that is straight within `T`; O(n)
+//! memory (the open sweeps' states), plus the shortcuts of a quarter circle or longer found.
+//! S^n, n > 2: O(Σ_i w_i²) time.
 
 use super::simplify::{distance_to_arc, ArcFrame};
 use crate::sphere::geometry::point::{
@@ -354,29 +355,16 @@ impl Sweep {
     }
 }
 
-/// Per start vertex, the forward verdicts for `j = i+1 ..= i+len` as two bit sets.
-struct ForwardVerdicts {
-    len: usize,
-    yes: Vec<u64>,
-    maybe: Vec<u64>,
+/// A forward sweep still open: its apex `start`, swept up to the current end.
+struct OpenSweep {
+    start: usize,
+    apex: Apex,
+    sweep: Sweep,
 }
 
-impl ForwardVerdicts {
-    fn get(&self, offset: usize) -> Verdict {
-        if offset == 0 || offset > self.len {
-            return Verdict::No;
-        }
-        let (w, b) = ((offset - 1) / 64, (offset - 1) % 64);
-        if self.yes[w] >> b & 1 == 1 {
-            Verdict::Yes
-        } else if self.maybe[w] >> b & 1 == 1 {
-            Verdict::Maybe
-        } else {
-            Verdict::No
-        }
-    }
-}
-
+/// Both sweeps run together, ends `j` ascending: the forward sweeps from every `i` whose outer
+/// wedge is still open advance by one point per `j` (so only their states are kept: O(open)
+/// memory, not the O(n²) of stored verdicts), then the backward sweep from `j` meets them.
 fn sweep_s2(
     points: &PointSet,
     tolerance_rad: f64,
@@ -391,42 +379,27 @@ fn sweep_s2(
         outer: Wedge::new(tolerance_rad + margin),
         short,
     };
-    let forward: Vec<ForwardVerdicts> = (0..n)
-        .map(|i| {
-            let apex = Apex::new(points.get(i));
-            let mut sweep = new_sweep();
-            let (mut yes, mut maybe) = (Vec::new(), Vec::new());
-            let mut len = 0;
-            for j in i + 1..n {
-                let (c, phi) = apex.polar(points.get(j));
-                let v = sweep.step(c, phi, j == i + 1);
-                let (w, b) = ((j - i - 1) / 64, (j - i - 1) % 64);
-                if w == yes.len() {
-                    yes.push(0u64);
-                    maybe.push(0u64);
-                }
-                match v {
-                    Verdict::Yes => yes[w] |= 1 << b,
-                    Verdict::Maybe => maybe[w] |= 1 << b,
-                    Verdict::No => {}
-                }
-                len = j - i;
-                if sweep.outer.empty {
-                    break;
-                }
-            }
-            ForwardVerdicts { len, yes, maybe }
-        })
-        .collect();
     let d = Fixed::<3>;
+    let mut open: Vec<OpenSweep> = Vec::new();
+    // The forward verdict on `i -> j` for the current `j` (No for sweeps already closed).
+    let mut forward = vec![Verdict::No; n];
     for j in 1..n {
-        let apex = Apex::new(points.get(j));
+        open.push(OpenSweep {
+            start: j - 1,
+            apex: Apex::new(points.get(j - 1)),
+            sweep: new_sweep(),
+        });
+        let q = points.get(j);
+        for s in open.iter_mut() {
+            let (c, phi) = s.apex.polar(q);
+            forward[s.start] = s.sweep.step(c, phi, s.start + 1 == j);
+        }
+        let apex = Apex::new(q);
         let mut sweep = new_sweep();
         for i in (0..j).rev() {
             let (c, phi) = apex.polar(points.get(i));
             let back = sweep.step(c, phi, i + 1 == j);
-            let fwd = forward[i].get(j - i);
-            let valid = match (fwd, back) {
+            let valid = match (forward[i], back) {
                 (Verdict::No, _) | (_, Verdict::No) => false,
                 (Verdict::Yes, Verdict::Yes) => true,
                 _ => valid_by_points(d, points, i, j, tolerance_rad),
@@ -441,6 +414,11 @@ fn sweep_s2(
         for &i in &long[j] {
             f(i, j);
         }
+        for s in &open {
+            forward[s.start] = Verdict::No;
+        }
+        // An empty outer wedge stays empty: no later shortcut from that start is short-valid.
+        open.retain(|s| !s.sweep.outer.empty);
     }
 }
 
