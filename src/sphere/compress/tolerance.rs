@@ -361,7 +361,7 @@ pub fn fit_to_tolerance(
         .map(|c| stored_numbers(&c.spline, c.rule))
         .unwrap_or(usize::MAX);
     'shares: for &share in VERTEX_SHARES.iter() {
-        let found = search(
+        let (found, near) = search(
             points,
             &base_params,
             free,
@@ -369,8 +369,15 @@ pub fn fit_to_tolerance(
             cap,
             options,
             &degrees,
-            &mut closest,
         )?;
+        if let Some((c, m)) = near {
+            if closest
+                .as_ref()
+                .is_none_or(|(_, b)| m.max_error_rad < b.max_error_rad)
+            {
+                closest = Some((c, m));
+            }
+        }
         // Fewest stored numbers first among the curves that meet the vertex target.
         let mut order: Vec<usize> = (0..found.len()).collect();
         order.sort_by_key(|&i| stored_numbers(&found[i].0.spline, found[i].0.rule));
@@ -526,9 +533,9 @@ fn search(
     cap: usize,
     options: &ToleranceOptions,
     degrees: &[usize],
-    closest: &mut Option<(Curve, ErrorMetrics)>,
-) -> Result<Vec<(Curve, ErrorMetrics)>, SphereError> {
+) -> Result<Searched, SphereError> {
     let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
+    let mut closest: Option<(Curve, ErrorMetrics)> = None;
     for &p in degrees {
         options.cancel.check()?;
         let budget = found
@@ -556,13 +563,17 @@ fn search(
                 .as_ref()
                 .is_none_or(|(_, b): &(Curve, ErrorMetrics)| m.max_error_rad < b.max_error_rad)
             {
-                *closest = Some((c, m));
+                closest = Some((c, m));
             }
         }
     }
     options.cancel.check()?;
-    Ok(found)
+    Ok((found, closest))
 }
+
+/// What [`search`] found: the curves meeting the vertex target, and the one closest to it
+/// among the others.
+type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
 
 /// The polyline fallbacks, degree 1 on uniform knots (none stored): the Douglas–Peucker
 /// vertices at a hair under the tolerance, then (when parameters are free) every point. Each
