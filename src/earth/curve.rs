@@ -356,6 +356,7 @@ pub fn fit_line(
             converged,
             knots: serde_json::to_value(options.knots).expect("enum serialises"),
             parameterization: options.parameterization,
+            sampling_aim_rad: None,
         },
         pointer,
         path,
@@ -378,6 +379,8 @@ struct Fitted<'a> {
     converged: bool,
     knots: Value,
     parameterization: crate::sphere::Parameterization,
+    /// What automatic dense sampling aims for; by default a share of the max error.
+    sampling_aim_rad: Option<f64>,
 }
 
 /// Measures a fitted curve as returned, samples it and writes its `properties.fit` fields.
@@ -401,6 +404,7 @@ fn finish_fit(
         converged,
         knots,
         parameterization,
+        sampling_aim_rad,
     } = f;
     let control_points = spline.control_points().len();
     // Errors of the spline as returned, each distinct position counted once per input copy.
@@ -415,7 +419,7 @@ fn finish_fit(
     let dense = sample(
         &spline,
         ring_sampling(output.sampling, closed),
-        auto_tolerance_rad(max_rad),
+        sampling_aim_rad.unwrap_or_else(|| auto_tolerance_rad(max_rad)),
         sampling_start(control_points),
         limits.max_samples,
     )
@@ -574,6 +578,9 @@ pub fn fit_line_to_tolerance(
                 converged: false,
                 knots: knot_rule.clone(),
                 parameterization: options.parameterization,
+                // The margin the fit left for the dense output, so the returned geometry
+                // stays within the tolerance too.
+                sampling_aim_rad: Some(dense_margin),
             },
             pointer,
             path.clone(),

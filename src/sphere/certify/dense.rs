@@ -23,6 +23,12 @@ const CHORD_EVALUATIONS: usize = 24;
 /// tightened, never assumed).
 const FINAL_CHORD_EVALUATIONS: usize = 512;
 
+/// Curve evaluations allowed per output point allowed (`max_points`): the halving and the
+/// certification stop there, and the deviation returned is the bound proven by then. Without
+/// it a long curve at a tight tolerance whose speed bound is loose (control arcs near a half
+/// turn) would spend up to `FINAL_CHORD_EVALUATIONS` on every one of `max_points` chords.
+const EVALUATIONS_PER_POINT: usize = 8;
+
 /// A curve sampled with a certified deviation.
 #[derive(Clone, Debug)]
 pub struct DenseSamples {
@@ -57,6 +63,20 @@ pub fn sample_within(
     start: usize,
     max_points: usize,
 ) -> DenseSamples {
+    let budget = EVALUATIONS_PER_POINT.saturating_mul(max_points.max(2));
+    sample_within_budget(curve, tolerance_rad, start, max_points, budget)
+}
+
+/// [`sample_within`] with at most about `max_evaluations` curve evaluations (at least one per
+/// output point): past it, chords keep the bound proven so far, which is what
+/// `deviation_rad` then reports (it may exceed `tolerance_rad`, never the truth).
+pub fn sample_within_budget(
+    curve: &dyn SphericalCurve,
+    tolerance_rad: f64,
+    start: usize,
+    max_points: usize,
+    max_evaluations: usize,
+) -> DenseSamples {
     let max_points = max_points.max(2);
     let tol = tolerance_rad.max(2.0 * ROUNDING_SLACK_RAD);
     let (lo, hi) = curve.domain();
@@ -74,10 +94,11 @@ pub fn sample_within(
     // keep their bound.
     let mut bound = vec![f64::NAN; ts.len() - 1];
     let mut pending: Vec<usize> = (0..ts.len() - 1).collect();
+    let budget = max_evaluations;
     loop {
-        let last_round = ts.len() >= max_points;
+        let last_round = ts.len() >= max_points || evaluations >= budget;
         let cap = if last_round {
-            FINAL_CHORD_EVALUATIONS
+            FINAL_CHORD_EVALUATIONS.min(budget.saturating_sub(evaluations) / pending.len().max(1))
         } else {
             CHORD_EVALUATIONS
         };
@@ -109,6 +130,11 @@ pub fn sample_within(
                 continue;
             }
             break;
+        }
+        if evaluations >= budget {
+            // The final round re-certifies what is still open with what budget is left.
+            pending = split;
+            continue;
         }
         if split.len() > room {
             split.sort_by(|&a, &b| bound[b].total_cmp(&bound[a]));
@@ -168,7 +194,8 @@ fn certify_chord(
     cap: usize,
 ) -> (f64, usize) {
     let speed = curve.speed_bound(u, v);
-    let whole = ellipse_deviation(speed * (v - u), angle_between(pu, pv));
+    // Any two points of the sphere are within pi: the bound when the speed bound is not finite.
+    let whole = ellipse_deviation(speed * (v - u), angle_between(pu, pv)).min(std::f64::consts::PI);
     if v <= u {
         return (0.0, 0);
     }

@@ -37,7 +37,8 @@ use crate::sphere::curve::SphericalCurve;
 use crate::sphere::geometry::point::{angle_between, dot, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// How precisely, and at what cost at most, [`two_way_distance`] works.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,6 +48,10 @@ pub struct TwoWayOptions {
     /// Most curve evaluations in all. When they run out the bound returned is still an upper
     /// bound, only a looser one (`budget_exhausted` says so).
     pub max_evaluations: usize,
+    /// Decide against this level instead of measuring precisely: intervals whose bound is at
+    /// most the level are accepted as they are, and the work stops as soon as a sample lies
+    /// farther than the level (`exceeded`). A fitter asking "is D <= T?" needs no more.
+    pub decide_rad: Option<f64>,
 }
 
 impl Default for TwoWayOptions {
@@ -54,6 +59,7 @@ impl Default for TwoWayOptions {
         TwoWayOptions {
             precision_rad: 1e-8,
             max_evaluations: 20_000_000,
+            decide_rad: None,
         }
     }
 }
@@ -67,6 +73,11 @@ impl TwoWayOptions {
     /// Sets the evaluation budget.
     pub fn with_max_evaluations(mut self, n: usize) -> Self {
         self.max_evaluations = n;
+        self
+    }
+    /// Decides "D <= level?" instead of measuring D (see [`TwoWayOptions::decide_rad`]).
+    pub fn deciding(mut self, level_rad: f64) -> Self {
+        self.decide_rad = Some(level_rad);
         self
     }
 }
@@ -94,6 +105,9 @@ pub struct TwoWayDistance {
     pub evaluations: usize,
     /// The evaluation budget ran out (the bound holds, but may be loose).
     pub budget_exhausted: bool,
+    /// Deciding ([`TwoWayOptions::decide_rad`]): a sample lies farther than the level, so D
+    /// exceeds it; the work stopped there and `upper_rad` is only the trivial bound (pi).
+    pub exceeded: bool,
 }
 
 /// The length of a polyline (sum of its great-circle arcs), radians.
@@ -171,6 +185,9 @@ pub fn two_way_distance(
     let breaks = curve.breaks();
     let budget = AtomicUsize::new(options.max_evaluations.saturating_sub(n));
     let eps = options.precision_rad.max(ROUNDING_SLACK_RAD);
+    let decide = options.decide_rad.unwrap_or(f64::INFINITY);
+    let stop = AtomicBool::new(vertex_max > decide);
+    let domain_width = (hi - lo).abs().max(hi.abs()).max(lo.abs()).max(1.0);
     let pieces: Vec<Piece> = (0..n - 1)
         .into_par_iter()
         .map(|j| {
@@ -202,6 +219,9 @@ pub fn two_way_distance(
                     level0: vertex_max,
                     eps,
                     budget: &budget,
+                    decide,
+                    stop: &stop,
+                    domain_width,
                 },
             )
         })
@@ -216,6 +236,7 @@ pub fn two_way_distance(
         curve_length_rad: 0.0,
         evaluations: n,
         budget_exhausted: false,
+        exceeded: false,
     };
     for (j, p) in pieces.iter().enumerate() {
         out.curve_to_line_rad = out.curve_to_line_rad.max(p.upper1);
@@ -227,6 +248,10 @@ pub fn two_way_distance(
         out.curve_length_rad += p.length;
         out.evaluations += p.evaluations;
         out.budget_exhausted |= p.exhausted;
+    }
+    if stop.load(Ordering::Relaxed) {
+        out.exceeded = true;
+        out.upper_rad = std::f64::consts::PI;
     }
     Ok(out)
 }
@@ -244,6 +269,12 @@ struct PieceInput<'a> {
     level0: f64,
     eps: f64,
     budget: &'a AtomicUsize,
+    /// The decision level (infinite when measuring).
+    decide: f64,
+    /// Set by any piece that finds a sample beyond `decide`: every piece then stops.
+    stop: &'a AtomicBool,
+    /// Scale of the parameters, for the width below which an unbounded interval is given up.
+    domain_width: f64,
 }
 
 struct Piece {
@@ -261,6 +292,12 @@ const MIN_RELATIVE_WIDTH: f64 = 1e-13;
 
 /// Rounds of sample insertion for the arc-to-curve direction.
 const ARC_TO_CURVE_ROUNDS: usize = 24;
+
+/// An interval whose speed bound is still unbounded (a de Boor node's triangle near a half
+/// turn) once it is this narrow relative to the domain is given the trivial bound pi instead
+/// of being halved on: halving cannot make the bound finite when the control points themselves
+/// are near antipodal, and would only spend the whole budget.
+const UNBOUNDED_GIVE_UP_WIDTH: f64 = 1e-6;
 
 /// Samples of one piece: parameters, points (flat) and distances to the piece's arc.
 struct Samples {
@@ -337,7 +374,13 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
         open.clear();
     }
     while !open.is_empty() {
-        let level = inp.level0.max(lower) + inp.eps;
+        if lower > inp.decide {
+            inp.stop.store(true, Ordering::Relaxed);
+        }
+        if inp.stop.load(Ordering::Relaxed) {
+            break;
+        }
+        let level = level_for(&inp, lower);
         let mut split: Vec<(usize, usize)> = Vec::new();
         for &(iu, iv) in &open {
             let (tu, tv) = (s.ts[iu], s.ts[iv]);
@@ -351,7 +394,9 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
             } else {
                 lip.min(ellipse_deviation(length, chord) + arc_to_arc_sup(pu, pv, &frame))
             };
-            let narrow = tv - tu <= MIN_RELATIVE_WIDTH * tu.abs().max(tv.abs()).max(1.0);
+            let bound = bound.min(PI);
+            let narrow = tv - tu <= MIN_RELATIVE_WIDTH * tu.abs().max(tv.abs()).max(1.0)
+                || (bound >= PI && tv - tu <= UNBOUNDED_GIVE_UP_WIDTH * inp.domain_width);
             if bound <= level || narrow || exhausted {
                 upper1 = upper1.max(bound);
             } else {
@@ -400,7 +445,14 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
     let mut upper2;
     let mut rounds = 0;
     loop {
-        let level = inp.level0.max(lower) + inp.eps;
+        if lower > inp.decide {
+            inp.stop.store(true, Ordering::Relaxed);
+        }
+        if inp.stop.load(Ordering::Relaxed) {
+            upper2 = PI;
+            break;
+        }
+        let level = level_for(&inp, lower);
         let (sup, bad) = arc_to_samples(&frame, &s, level, covered);
         upper2 = sup;
         if covered.1 > covered.0 {
@@ -464,6 +516,17 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
         length,
         evaluations,
         exhausted,
+    }
+}
+
+/// The level below which an interval's bound is accepted: the best lower bound plus the
+/// precision when measuring, or the decision level when that is higher.
+fn level_for(inp: &PieceInput<'_>, lower: f64) -> f64 {
+    let measured = inp.level0.max(lower) + inp.eps;
+    if inp.decide.is_finite() {
+        measured.max(inp.decide)
+    } else {
+        measured
     }
 }
 

@@ -114,7 +114,10 @@ pub struct Candidate {
     pub stored_numbers: usize,
     /// Vertex error (parametric, at the curve's data parameters).
     pub max_error_rad: f64,
-    /// Certified two-way distance to the input polyline (see [`crate::sphere::two_way`]).
+    /// The fitter only decides whether the certified two-way distance to the input polyline
+    /// (see [`crate::sphere::two_way`]) is within the tolerance: for a curve that meets it,
+    /// the proven bound found (at most the tolerance); for one that does not, the distance of
+    /// a curve point or vertex found beyond the tolerance (a lower bound of the distance).
     pub two_way_rad: f64,
     /// Curve length over input polyline length.
     pub curve_length_ratio: f64,
@@ -334,15 +337,31 @@ pub fn fit_to_tolerance(
     degrees.sort_unstable();
     degrees.dedup();
     let input_length = polyline_length(points);
-    let tw_options = TwoWayOptions::default()
+    let measure_options = TwoWayOptions::default()
         .with_precision_rad(TWO_WAY_PRECISION * tolerance_rad)
         .with_max_evaluations(two_way_budget(n));
+    // Candidates are only asked "within the tolerance?": intervals proven under it are not
+    // refined further, and a sample beyond it ends the check.
+    let tw_options = measure_options
+        .clone()
+        .deciding(tolerance_rad)
+        .with_max_evaluations(decide_budget(n));
     let mut candidates: Vec<Candidate> = Vec::new();
     // The best curve that misses, by two-way distance, in case nothing meets.
     let mut best_miss: Option<(Curve, ErrorMetrics, TwoWayDistance)> = None;
     let mut chosen: Option<(Curve, ErrorMetrics, TwoWayDistance)> = None;
+    // The curve closest at the vertices among those that miss even the vertex target, for
+    // when nothing else is left (parameters that repeat for distinct points, a cap).
+    let mut closest: Option<(Curve, ErrorMetrics)> = None;
+    // Douglas–Peucker's polyline is the yardstick: a curve storing more numbers than it is
+    // never worth proving.
+    let fallbacks = polyline_candidates(points, &base_params, free, tolerance_rad);
+    let yardstick = fallbacks
+        .first()
+        .map(|c| stored_numbers(&c.spline, c.rule))
+        .unwrap_or(usize::MAX);
     'shares: for &share in VERTEX_SHARES.iter() {
-        let found = search(
+        let (found, near) = search(
             points,
             &base_params,
             free,
@@ -351,12 +370,23 @@ pub fn fit_to_tolerance(
             options,
             &degrees,
         )?;
+        if let Some((c, m)) = near {
+            if closest
+                .as_ref()
+                .is_none_or(|(_, b)| m.max_error_rad < b.max_error_rad)
+            {
+                closest = Some((c, m));
+            }
+        }
         // Fewest stored numbers first among the curves that meet the vertex target.
         let mut order: Vec<usize> = (0..found.len()).collect();
         order.sort_by_key(|&i| stored_numbers(&found[i].0.spline, found[i].0.rule));
         let mut found: Vec<Option<(Curve, ErrorMetrics)>> = found.into_iter().map(Some).collect();
         for i in order {
             let (c, m) = found[i].take().expect("each curve is taken once");
+            if stored_numbers(&c.spline, c.rule) >= yardstick {
+                break;
+            }
             let tw = two_way_distance(&c.spline, points, &c.params, &tw_options)?;
             let met = accepts(&tw, tolerance_rad, input_length);
             candidates.push(candidate(&c, &m, &tw, met, input_length));
@@ -366,7 +396,7 @@ pub fn fit_to_tolerance(
             }
             if best_miss
                 .as_ref()
-                .is_none_or(|b| tw.upper_rad < b.2.upper_rad)
+                .is_none_or(|b| miss_score(&tw) < miss_score(&b.2))
             {
                 best_miss = Some((c, m, tw));
             }
@@ -374,7 +404,6 @@ pub fn fit_to_tolerance(
     }
     if chosen.is_none() {
         // Towards the polyline: Douglas–Peucker's vertices, then every point.
-        let fallbacks = polyline_candidates(points, &base_params, free, tolerance_rad);
         for c in fallbacks
             .into_iter()
             .filter(|c| c.spline.control_points().len() <= cap)
@@ -389,14 +418,26 @@ pub fn fit_to_tolerance(
             }
             if best_miss
                 .as_ref()
-                .is_none_or(|b| tw.upper_rad < b.2.upper_rad)
+                .is_none_or(|b| miss_score(&tw) < miss_score(&b.2))
             {
                 best_miss = Some((c, m, tw));
             }
         }
     }
     let met = chosen.is_some();
-    let (curve, metrics, tw) = chosen.or(best_miss).ok_or(SphereError::NoValidFit)?;
+    let (curve, metrics, decided) = match chosen.or(best_miss) {
+        Some((c, m, tw)) => (c, m, Some(tw.upper_rad)),
+        None => {
+            let (c, m) = closest.ok_or(SphereError::NoValidFit)?;
+            (c, m, None)
+        }
+    };
+    // The decision said yes or no; the report gives the distance itself. Both are proven
+    // upper bounds, so the smaller one is.
+    let mut tw = two_way_distance(&curve.spline, points, &curve.params, &measure_options)?;
+    if let Some(d) = decided {
+        tw.upper_rad = tw.upper_rad.min(d);
+    }
     let stored = stored_numbers(&curve.spline, curve.rule);
     let input_numbers = polyline_numbers(n, points.dim());
     Ok(ToleranceFit {
@@ -433,9 +474,27 @@ fn two_way_budget(n: usize) -> usize {
     4_000_000 + 400 * n
 }
 
+/// Curve evaluations allowed per candidate's decision: real lines need tens of thousands (the
+/// 10m US–Mexico border at 25 m: 22k); a candidate that needs far more (a tolerance tiny
+/// against a curve whose control arcs are near a half turn, where the speed bound is loose) is
+/// not proven and so not taken.
+fn decide_budget(n: usize) -> usize {
+    1_000_000 + 400 * n
+}
+
 fn accepts(tw: &TwoWayDistance, tolerance_rad: f64, input_length: f64) -> bool {
     tw.upper_rad <= tolerance_rad
         && tw.curve_length_rad <= MAX_LENGTH_RATIO * input_length + tolerance_rad
+}
+
+/// How far a decided curve is known to be: its proven bound, or, when a sample beyond the
+/// tolerance ended the check, that sample's distance.
+fn miss_score(tw: &TwoWayDistance) -> f64 {
+    if tw.exceeded {
+        tw.lower_rad
+    } else {
+        tw.upper_rad
+    }
 }
 
 fn length_ratio(curve: f64, input: f64) -> f64 {
@@ -459,7 +518,7 @@ fn candidate(
         control_points: c.spline.control_points().len(),
         stored_numbers: stored_numbers(&c.spline, c.rule),
         max_error_rad: m.max_error_rad,
-        two_way_rad: tw.upper_rad,
+        two_way_rad: miss_score(tw),
         curve_length_ratio: length_ratio(tw.curve_length_rad, input_length),
         tolerance_met: met,
     }
@@ -474,8 +533,9 @@ fn search(
     cap: usize,
     options: &ToleranceOptions,
     degrees: &[usize],
-) -> Result<Vec<(Curve, ErrorMetrics)>, SphereError> {
+) -> Result<Searched, SphereError> {
     let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
+    let mut closest: Option<(Curve, ErrorMetrics)> = None;
     for &p in degrees {
         options.cancel.check()?;
         let budget = found
@@ -499,12 +559,21 @@ fn search(
             let m = measure(&c.spline, points, &c.params);
             if m.max_error_rad <= target {
                 found.push((c, m));
+            } else if closest
+                .as_ref()
+                .is_none_or(|(_, b): &(Curve, ErrorMetrics)| m.max_error_rad < b.max_error_rad)
+            {
+                closest = Some((c, m));
             }
         }
     }
     options.cancel.check()?;
-    Ok(found)
+    Ok((found, closest))
 }
+
+/// What [`search`] found: the curves meeting the vertex target, and the one closest to it
+/// among the others.
+type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
 
 /// The polyline fallbacks, degree 1 on uniform knots (none stored): the Douglas–Peucker
 /// vertices at a hair under the tolerance, then (when parameters are free) every point. Each
@@ -518,9 +587,12 @@ fn polyline_candidates(
 ) -> Vec<Curve> {
     let n = points.len();
     let mut out = Vec::new();
-    let dp = douglas_peucker(points, 0.95 * tolerance_rad);
+    // Douglas–Peucker bounds the vertices' distance to the kept chords; the ordered two-way
+    // distance can be a little more, hence the second try a hair under the tolerance.
+    let dp = douglas_peucker(points, tolerance_rad);
+    let dp_under = douglas_peucker(points, 0.95 * tolerance_rad);
     let all: Vec<usize> = (0..n).collect();
-    for kept in [dp, all] {
+    for kept in [dp, dp_under, all] {
         if let Some(c) = polyline_through(points, base_params, free, &kept) {
             out.push(c);
         }
