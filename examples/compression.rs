@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! scripts/compression_bench.sh                      # the markdown table (one thread)
-//! scripts/compression_bench.sh --noisy-points 16000 # the noisy track at the issue's length
+//! scripts/compression_bench.sh --noisy-points 2000  # a shorter noisy track
 //! scripts/compression_bench.sh --ablation           # each fitter idea switched off in turn
 //! ```
 //!
@@ -188,9 +188,9 @@ fn data_sets(noisy_points: usize) -> Vec<DataSet> {
     sets
 }
 
-/// Points (seconds) of the noisy 1 Hz track by default (`--noisy-points N` for another length:
-/// the issue's flight had 16,005, where the spline fit at 1 and 5 m takes minutes).
-const NOISY_POINTS: usize = 2_000;
+/// Points (seconds) of the noisy 1 Hz track by default: the length of the issue-15 flight
+/// (`--noisy-points N` for another).
+const NOISY_POINTS: usize = 16_000;
 
 /// One method's result on a data set at one tolerance (summed or maxed over its lines).
 #[derive(Default)]

@@ -5,7 +5,7 @@
 # for the US–Mexico borders, the GPS tracks in fixtures/ and synthetic lines.
 #
 #   scripts/compression_bench.sh              # the markdown table
-#   scripts/compression_bench.sh --noisy-points 16000   # the noisy track at the length of issue 15
+#   scripts/compression_bench.sh --noisy-points 2000    # a shorter noisy 1 Hz track (default 16,000)
 #   scripts/compression_bench.sh --ablation   # stored numbers with each idea switched off
 #
 # Times are wall clock on one thread of whatever machine runs it.
