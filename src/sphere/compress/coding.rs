@@ -181,7 +181,7 @@ fn put_points(out: &mut Vec<u8>, points: &PointSet, q: f64) {
 /// # Example
 /// ```
 /// use spherefit::sphere::{coding::encode_polyline, PointSet};
-/// let q = 1e-6;
+/// let q: f64 = 1e-6;
 /// let rows = [[1.0, 0.0, 0.0], [(100.0 * q).cos(), (100.0 * q).sin(), 0.0]];
 /// let bytes = encode_polyline(&PointSet::try_from_rows(&rows).unwrap(), q).unwrap();
 /// // Header 4 bytes; (0, 0) 2 bytes; longitude +100 steps (zigzag 200) 2 bytes, latitude 1.

@@ -86,7 +86,7 @@ fn short_arc_limit(outer_tolerance_rad: f64) -> f64 {
 /// use spherefit::sphere::{optimal::optimal_subset, simplify::douglas_peucker, PointSet};
 /// // A zig-zag of amplitude 1e-4 rad along the equator: at 2e-4 it is one arc.
 /// let rows: Vec<[f64; 3]> = (0..50)
-///     .map(|i| { let (lon, lat) = (0.01 * i as f64, if i % 2 == 0 { 0.0 } else { 1e-4 }); [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()] })
+///     .map(|i| { let (lon, lat): (f64, f64) = (0.01 * i as f64, if i % 2 == 0 { 0.0 } else { 1e-4 }); [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()] })
 ///     .collect();
 /// let line = PointSet::try_from_rows(&rows).unwrap();
 /// assert_eq!(optimal_subset(&line, 2e-4), vec![0, 49]);
