@@ -5,6 +5,7 @@ mod applications;
 mod beta;
 mod cli_batch;
 mod cli_sphere;
+mod default_fit;
 mod earth;
 mod helpers;
 mod http;
