@@ -8,6 +8,7 @@ mod cli_sphere;
 mod earth;
 mod helpers;
 mod hostile;
+mod hostile_props;
 mod http;
 mod http_openapi;
 mod http_port;
