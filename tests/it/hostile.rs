@@ -317,8 +317,17 @@ fn past_the_budget_the_work_stops_and_its_slot_is_freed() {
 
 #[test]
 fn the_sphere_routes_honour_the_budget() {
-    let srv = Server::start(&["--timeout-s", "2", "--fit-concurrency", "1"]);
-    let n = 150_000;
+    // The work must outlast the budget on a fast idle machine too: 150,000 points at a 2 s budget
+    // finished in time there (a 200), so the work is doubled and the budget halved.
+    let srv = Server::start(&[
+        "--timeout-s",
+        "1",
+        "--fit-concurrency",
+        "1",
+        "--max-body-bytes",
+        "33554432",
+    ]);
+    let n = 300_000;
     let pts: Vec<[f64; 3]> = (0..n)
         .map(|i| {
             let lon = (-170.0 + 340.0 * i as f64 / n as f64).to_radians();
