@@ -120,8 +120,8 @@ def _assemble(
         out = gpd.GeoDataFrame(geometry=gpd.GeoSeries(out_geoms, index=idx, crs=crs), index=idx)
     for name, dtype in columns.items():
         values = [None if s is None else s.get(name) for s in scalars]
-        out[name] = pd.array(values, dtype=dtype)
-    out[json_column] = pd.array(infos, dtype=object)
+        out[name] = pd.Series(pd.array(values, dtype=dtype), index=out.index)
+    out[json_column] = pd.Series(infos, index=out.index, dtype=object)
     return out
 
 
