@@ -125,6 +125,22 @@ def _assemble(
     return out
 
 
+def _call(native: Any, index: Any, *args: Any, **kwargs: Any):
+    """Runs a native function; a feature error also names the row's index label (the position
+    alone is local to a Dask or Spark partition)."""
+    try:
+        return native(*args, **kwargs)
+    except SpherefitError as e:
+        import pandas as pd
+
+        plain = isinstance(index, pd.RangeIndex) and index.start == 0 and index.step == 1
+        if e.index is None or index is None or plain:
+            raise
+        label = index[e.index]
+        message = str(e).replace(f"feature {e.index}", f"feature {e.index} (index {label!r})", 1)
+        raise SpherefitError(message, e.index, e.pointer, e.problem) from None
+
+
 def _sampling(samples: Optional[int], spacing_m: Optional[float]) -> Dict[str, Any]:
     return {"samples": samples, "spacing_m": spacing_m}
 
@@ -175,7 +191,9 @@ def fit(
     """
     arr, index, crs, frame = _geometry_input(geoms)
     _check_crs(crs)
-    result = _native.fit_wkb(
+    result = _call(
+        _native.fit_wkb,
+        index,
         _to_wkb(arr),
         tolerance_m=tolerance_m,
         control_points=control_points,
@@ -214,7 +232,9 @@ def interpolate(
     """
     arr, index, crs, frame = _geometry_input(geoms)
     _check_crs(crs)
-    result = _native.interpolate_wkb(
+    result = _call(
+        _native.interpolate_wkb,
+        index,
         _to_wkb(arr),
         beta1=beta1,
         beta2=beta2,
@@ -279,7 +299,9 @@ def evaluate(
                 pointer="",
                 problem="invalid-spline",
             )
-    result = _native.evaluate_json(
+    result = _call(
+        _native.evaluate_json,
+        index,
         texts,
         key,
         precision=precision,
