@@ -84,3 +84,19 @@ def test_spark_bad_input(spark):
         spherefit.spark.fit(df).collect()
     with pytest.raises(spherefit.SpherefitError, match="no column 'geom'"):
         spherefit.spark.fit(df, geometry="geom")
+
+
+def test_spark_reads_geoparquet_and_fits_it(spark, tmp_path):
+    """The README's Spark example: GeoParquet read as plain Parquet has a WKB column."""
+    gdf, _ = wkb_table()
+    path = tmp_path / "tracks.parquet"
+    gdf.to_parquet(path)
+    df = spark.read.parquet(str(path))
+    assert dict(df.dtypes)["geometry"] == "binary"
+    got = spherefit.spark.fit(df, geometry="geometry", tolerance_m=25).toPandas().sort_values("row")
+    want = spherefit.fit(gdf, tolerance_m=25)
+    assert nulls_as_none(got["fit"]) == nulls_as_none(want["fit"])
+    out = tmp_path / "fitted"
+    spherefit.spark.fit(df, tolerance_m=25).write.parquet(str(out))
+    back = spark.read.parquet(str(out)).toPandas().sort_values("row")
+    assert nulls_as_none(back["fit"]) == nulls_as_none(want["fit"])
