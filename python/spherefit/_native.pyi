@@ -13,6 +13,15 @@ _Scalar = Union[int, float, bool, str]
 _Columns = Tuple[List[Optional[bytes]], List[Optional[str]], List[Optional[Dict[str, _Scalar]]]]
 
 __version__: str
+__all__ = [
+    "__version__",
+    "fit_wkb",
+    "interpolate_wkb",
+    "evaluate_json",
+    "sphere_fit",
+    "sphere_interpolate",
+    "sphere_evaluate",
+]
 
 def fit_wkb(
     wkbs: Sequence[Optional[bytes]],

@@ -66,7 +66,9 @@ def fit(
 
 
 def _per_point(v: Union[float, Sequence[float]]) -> list:
-    return [float(v)] if np.isscalar(v) else [float(x) for x in v]
+    if isinstance(v, (int, float, np.number)):
+        return [float(v)]
+    return [float(x) for x in v]
 
 
 def interpolate(

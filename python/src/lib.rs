@@ -28,6 +28,11 @@ use spherefit::sphere::{
     ToleranceOptions,
 };
 
+// The literal defaults in the `#[pyo3(signature)]`s (literals, so that Python's signatures and
+// the stubs show them) are the library's.
+const _: () = assert!(spherefit::sphere::fit::DEFAULT_ITERATIONS == 30);
+const _: () = assert!(spherefit::earth::DEFAULT_PRECISION == 7);
+
 /// An error for Python: `spherefit.SpherefitError` (a `ValueError`) with the feature index,
 /// the pointer and the problem's slug as attributes.
 struct Failure {
@@ -228,8 +233,8 @@ fn one_geometry(index: usize, wkb: &[u8], job: &Job, key: &str) -> Result<Outcom
 #[pyfunction]
 #[pyo3(signature = (
     wkbs, *, tolerance_m=None, control_points=None, degree=3, knots="geodesic",
-    iterations=spherefit::sphere::fit::DEFAULT_ITERATIONS, parameterization="chord",
-    solver="gls-pia", samples=None, spacing_m=None, precision=spherefit::earth::DEFAULT_PRECISION,
+    iterations=30, parameterization="chord",
+    solver="gls-pia", samples=None, spacing_m=None, precision=7,
     max_samples=100_000, max_control_points=10_000, max_iterations=1_000
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -286,7 +291,7 @@ fn fit_wkb(
 #[pyfunction]
 #[pyo3(signature = (
     wkbs, *, beta1=1.0, beta2=0.0, samples=None, spacing_m=None,
-    precision=spherefit::earth::DEFAULT_PRECISION, max_samples=100_000
+    precision=7, max_samples=100_000
 ))]
 #[allow(clippy::too_many_arguments)]
 fn interpolate_wkb(
@@ -317,7 +322,7 @@ fn interpolate_wkb(
 #[pyfunction]
 #[pyo3(signature = (
     docs, key="fit", *, samples=None, spacing_m=None,
-    precision=spherefit::earth::DEFAULT_PRECISION, max_samples=100_000, max_control_points=10_000
+    precision=7, max_samples=100_000, max_control_points=10_000
 ))]
 #[allow(clippy::too_many_arguments)]
 fn evaluate_json(
@@ -599,4 +604,18 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sphere_evaluate, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use spherefit::earth::Limits;
+
+    #[test]
+    fn signature_limits_are_the_library_defaults() {
+        let l = Limits::default();
+        assert_eq!(
+            (l.max_samples, l.max_control_points, l.max_iterations),
+            (100_000, 10_000, 1_000)
+        );
+    }
 }
