@@ -396,7 +396,10 @@ fn rows(data: &[u8], m: usize, d: usize) -> Result<Vec<Vec<f64>>, Failure> {
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
         .collect();
-    Ok(values.chunks(d.max(1)).map(<[f64]>::to_vec).collect())
+    // Row by row, so that d = 0 gives m empty rows (refused by the library, naming row 0).
+    Ok((0..m)
+        .map(|i| values[i * d..(i + 1) * d].to_vec())
+        .collect())
 }
 
 fn point_set(data: &[u8], m: usize, d: usize) -> Result<PointSet, Failure> {

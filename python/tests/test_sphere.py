@@ -56,6 +56,8 @@ def test_fit_bad_input():
         spherefit.sphere.fit(p, degree=9)
     with pytest.raises(spherefit.SpherefitError, match="shape \\(3,\\)"):
         spherefit.sphere.fit([1.0, 0.0, 0.0])
+    with pytest.raises(spherefit.SpherefitError, match="^/points/0: "):
+        spherefit.sphere.fit(np.zeros((5, 0)))
     with pytest.raises(spherefit.SpherefitError, match="array of numbers"):
         spherefit.sphere.fit([["a", "b"]])
     with pytest.raises(spherefit.SpherefitError, match="^parameters: "):
