@@ -20,6 +20,7 @@ use spherefit::earth::{
     process_feature, process_geometry, EarthError, InterpolateSettings, Job, Limits, Operation,
     OutputOptions, Problem, Sampling,
 };
+use spherefit::sphere::cancel::Cancel;
 use spherefit::sphere::curve::even_parameters;
 use spherefit::sphere::document::tolerance_document;
 use spherefit::sphere::{
@@ -150,22 +151,57 @@ fn outcome(index: usize, feature: Value, key: &str) -> Result<Outcome, Failure> 
 }
 
 /// Runs `one` on every input in parallel, with the GIL released; the first error in input order
-/// is raised.
-fn run_all<I, F>(py: Python<'_>, inputs: Vec<Option<I>>, one: F) -> PyResult<Columns>
+/// is raised. The calling thread waits, taking the GIL back every 50 ms to run Python's signal
+/// handlers: a Ctrl-C (KeyboardInterrupt) cancels `cancel`, which the fitters check, and is
+/// raised once the workers have stopped.
+fn run_all<I, F>(
+    py: Python<'_>,
+    inputs: Vec<Option<I>>,
+    cancel: &Cancel,
+    one: F,
+) -> PyResult<Columns>
 where
     I: Send + Sync,
     F: Fn(usize, &I) -> Result<Outcome, Failure> + Send + Sync,
 {
-    let results: Vec<Result<Outcome, Failure>> = py.detach(|| {
-        inputs
-            .par_iter()
-            .enumerate()
-            .map(|(i, x)| match x {
-                None => Ok(None),
-                Some(x) => one(i, x),
-            })
-            .collect()
+    let (results, interrupt) = py.detach(|| {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::scope(|scope| {
+            scope.spawn(|| {
+                let r: Vec<Result<Outcome, Failure>> = inputs
+                    .par_iter()
+                    .enumerate()
+                    .map(|(i, x)| match x {
+                        None => Ok(None),
+                        Some(x) => one(i, x),
+                    })
+                    .collect();
+                // The receiver outlives this scope, so the send cannot fail.
+                let _ = tx.send(r);
+            });
+            let mut interrupt = None;
+            loop {
+                match rx.recv_timeout(std::time::Duration::from_millis(50)) {
+                    Ok(r) => return (r, interrupt),
+                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                        if interrupt.is_none() {
+                            if let Err(e) = Python::attach(|py| py.check_signals()) {
+                                cancel.cancel();
+                                interrupt = Some(e);
+                            }
+                        }
+                    }
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                        // The worker panicked; the scope re-raises its panic on exit.
+                        return (Vec::new(), interrupt);
+                    }
+                }
+            }
+        })
     });
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
     let mut geoms = Vec::with_capacity(results.len());
     let mut infos = Vec::with_capacity(results.len());
     let mut scalars = Vec::with_capacity(results.len());
@@ -280,11 +316,13 @@ fn fit_wkb(
                 max_samples,
                 max_iterations,
             },
-            cancel: Default::default(),
+            cancel: Cancel::new(),
         })
     })()
     .map_err(|f| f.into_py(py))?;
-    run_all(py, wkbs, |i, w| one_geometry(i, w, &job, "fit"))
+    run_all(py, wkbs, &job.cancel, |i, w| {
+        one_geometry(i, w, &job, "fit")
+    })
 }
 
 /// Interpolates WKB lines and rings with spherical Beta-splines, as `spherefit interpolate`.
@@ -311,10 +349,12 @@ fn interpolate_wkb(
             max_samples,
             ..Limits::default()
         },
-        cancel: Default::default(),
+        cancel: Cancel::new(),
     })
     .map_err(|f| f.into_py(py))?;
-    run_all(py, wkbs, |i, w| one_geometry(i, w, &job, "interpolation"))
+    run_all(py, wkbs, &job.cancel, |i, w| {
+        one_geometry(i, w, &job, "interpolation")
+    })
 }
 
 /// Samples stored curves (the JSON of `properties.fit` or `properties.interpolation`, as
@@ -348,11 +388,11 @@ fn evaluate_json(
             max_control_points,
             ..Limits::default()
         },
-        cancel: Default::default(),
+        cancel: Cancel::new(),
     })
     .map_err(|f| f.into_py(py))?;
     let prefix = format!("/properties/{key}");
-    run_all(py, docs, |i, text| {
+    run_all(py, docs, &job.cancel, |i, text| {
         let doc: Value = serde_json::from_str(text).map_err(|e| {
             feature_failure(
                 i,
