@@ -4,7 +4,8 @@ The geometry functions return three lists, one item per input: the output geomet
 (``None``: the input passes through unchanged), the operation's properties object as JSON text
 (``properties.fit`` / ``interpolation`` / ``evaluation`` of the CLI), and that object's scalar
 fields as a dict. They release the GIL and run the features in parallel. Errors are
-:class:`spherefit.SpherefitError`.
+:class:`spherefit.SpherefitError`; a Ctrl-C during a call cancels the work and raises
+``KeyboardInterrupt``.
 """
 
 from typing import Dict, List, Optional, Sequence, Tuple, Union

@@ -53,6 +53,12 @@ def test_fit_geodataframe_round_trip_keeps_columns_index_and_crs(border):
     assert len(spline["control_points"]) == 12 and spline["degree"] == 3
     assert gdf.geometry.iloc[0] is not out.geometry.iloc[0]  # the input is not modified
     assert border.geometry.iloc[0].equals(gdf.geometry.iloc[0])
+    # Another geometry column name and a GeoSeries keep their names, index and CRS too.
+    renamed = spherefit.fit(gdf.rename_geometry("line"), control_points=12)
+    assert renamed.geometry.name == "line" and "geometry" not in renamed.columns
+    assert renamed["fit"].tolist() == out["fit"].tolist()
+    series = spherefit.fit(gdf.geometry, control_points=12)
+    assert list(series.index) == ["a", "b", "c"] and series.crs == gdf.crs
 
 
 def test_fit_equals_cli_on_the_border(border):
