@@ -15,3 +15,4 @@ mod http_port;
 mod paper_reproduction;
 mod sphere_properties;
 mod tolerance;
+mod two_way;

@@ -22,17 +22,32 @@ const DEGENERATE_ARC_RAD: f64 = 1e-12;
 
 /// A minor great-circle arc prepared for many distance queries: `e1 = a`, `e2` the unit tangent
 /// at `a` towards `b`, and the arc's angle.
-struct ArcFrame {
-    e1: Vec<f64>,
-    e2: Vec<f64>,
+pub(crate) struct ArcFrame {
+    pub(crate) e1: Vec<f64>,
+    pub(crate) e2: Vec<f64>,
     b: Vec<f64>,
-    theta: f64,
+    pub(crate) theta: f64,
     /// The end points are (nearly) antipodal: the minor arc is undefined.
     antipodal: bool,
 }
 
 impl ArcFrame {
-    fn new<D: Dim>(d: D, a: &[f64], b: &[f64]) -> ArcFrame {
+    /// The arc has (next to) no length: distances are to its start point.
+    pub(crate) fn degenerate(&self) -> bool {
+        self.theta < DEGENERATE_ARC_RAD
+    }
+
+    /// [`distance_to_arc`] for this arc, in the runtime dimension.
+    pub(crate) fn distance_dyn(&self, q: &[f64]) -> f64 {
+        let d = crate::sphere::geometry::point::Dynamic(self.e1.len());
+        if self.antipodal {
+            angle(d, q, &self.e1).min(angle(d, q, &self.b))
+        } else {
+            self.distance(d, q)
+        }
+    }
+
+    pub(crate) fn new<D: Dim>(d: D, a: &[f64], b: &[f64]) -> ArcFrame {
         let dim = d.get();
         let theta = Arc::between(d, a, b).theta;
         let cos = dot(d, a, b);
@@ -50,7 +65,7 @@ impl ArcFrame {
     }
 
     #[inline(always)]
-    fn distance<D: Dim>(&self, d: D, q: &[f64]) -> f64 {
+    pub(crate) fn distance<D: Dim>(&self, d: D, q: &[f64]) -> f64 {
         let end_a = || angle(d, q, &self.e1);
         if self.theta < DEGENERATE_ARC_RAD {
             return end_a();

@@ -151,6 +151,24 @@ impl SphericalCurve for SphericalBezier {
     fn evaluate_many(&self, ts: &[f64]) -> PointSet {
         SphericalBezier::evaluate_many(self, ts)
     }
+    fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
+        let (a, b) = (clamp_unit(t0.min(t1)), clamp_unit(t0.max(t1)));
+        let mut scratch = Vec::new();
+        crate::sphere::certify::bounds::triangle_speed_bound(
+            self.dim(),
+            self.control.as_flat(),
+            |_, _| crate::sphere::certify::bounds::NodeAlpha {
+                at_start: a,
+                at_end: b,
+                slope: 1.0,
+            },
+            b - a,
+            &mut scratch,
+        )
+    }
+    fn breaks(&self) -> Vec<f64> {
+        Vec::new()
+    }
 }
 
 /// `u` clamped to [0, 1]; NaN becomes 0 so evaluation never reads outside the triangle.
