@@ -26,10 +26,17 @@ npm ci --prefix tests/browser --no-audit --no-fund --loglevel=error
 
 echo "== the basemap is what scripts/land_geojson.mjs makes"
 WORK="$(mktemp -d)"
-cp web/land-110m.geojson "$WORK/land.committed"
-node scripts/land_geojson.mjs >/dev/null
-if ! cmp -s web/land-110m.geojson "$WORK/land.committed"; then
-  cp "$WORK/land.committed" web/land-110m.geojson
+PID=""
+cleanup() {
+  if [ -n "$PID" ]; then
+    kill "$PID" 2>/dev/null || true
+    wait "$PID" 2>/dev/null || true
+  fi
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+node scripts/land_geojson.mjs "$WORK/land.geojson" >/dev/null
+if ! cmp -s web/land-110m.geojson "$WORK/land.geojson"; then
   echo "web/land-110m.geojson differs from what scripts/land_geojson.mjs makes" >&2
   exit 1
 fi
@@ -42,12 +49,6 @@ echo "== spherefit serve on 127.0.0.1:$PORT (log: $LOG)"
 "$ROOT/target/release/spherefit" serve --addr "127.0.0.1:$PORT" --exit-after-s 240 \
   --max-body-bytes 1048576 --max-points 20000 2>"$LOG" &
 PID=$!
-cleanup() {
-  kill "$PID" 2>/dev/null || true
-  wait "$PID" 2>/dev/null || true
-  rm -rf "$WORK"
-}
-trap cleanup EXIT
 for _ in $(seq 1 100); do
   if curl -fsS "http://127.0.0.1:$PORT/health" >/dev/null 2>&1; then break; fi
   sleep 0.1

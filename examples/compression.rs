@@ -1,4 +1,4 @@
-//! The compression bench of issue 7: numbers stored by [`fit_to_tolerance`] and by a spherical
+//! The compression bench: numbers stored by [`fit_to_tolerance`] and by a spherical
 //! Douglas–Peucker at the same max geodesic error, and the time of each, for the US–Mexico 10m
 //! border, the GPS tracks in `fixtures/` and synthetic smooth tracks, at 1, 5, 25, 100 and 500 m.
 //!

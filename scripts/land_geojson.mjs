@@ -1,7 +1,8 @@
 #!/usr/bin/env node
 // Builds web/land-110m.geojson, the map page's basemap, from npm `world-atlas` (Natural Earth
 // 110m land, public domain) with npm `topojson-client`. Run once after changing the recipe:
-//   npm ci --prefix tests/browser && node scripts/land_geojson.mjs
+//   npm ci --prefix tests/browser && node scripts/land_geojson.mjs [OUT]
+// (OUT defaults to web/land-110m.geojson; .ci/browser.sh writes elsewhere and compares.)
 // Rings are cleaned on the sphere (repeats and the out-and-back spikes Natural Earth draws along
 // the antimeridian dropped), oriented with land on their left (RFC 7946: exteriors
 // counterclockwise, holes clockwise) and rounded to 3 decimals (about 100 m; the source is
@@ -53,6 +54,6 @@ const out = {
     },
   ],
 };
-const file = path.join(root, 'web/land-110m.geojson');
+const file = process.argv[2] || path.join(root, 'web/land-110m.geojson');
 writeFileSync(file, JSON.stringify(out) + '\n');
 console.log(`${file}: ${polygons.length} polygons, ${points} positions`);

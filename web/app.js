@@ -11,7 +11,7 @@ const el = {
   request: $('request'), problem: $('problem'), dlFitted: $('download-fitted'),
   dlCurves: $('download-curves'), thead: document.querySelector('#features thead'),
   tbody: document.querySelector('#features tbody'), tableNote: $('table-note'),
-  legend: $('legend'), legendRamp: $('legend-ramp'), legendText: $('legend-text'),
+  cancel: $('cancel'), legend: $('legend'), legendRamp: $('legend-ramp'), legendText: $('legend-text'),
 };
 
 /** Steps longer than this are drawn as several, so great-circle arcs look like arcs. */
@@ -150,7 +150,7 @@ async function loadBlob(name, blob) {
     return;
   }
   fitView();
-  fit();
+  fit(true);
 }
 
 async function loadSample() {
@@ -193,16 +193,21 @@ function updateModeControls() {
         : 'Control points per curve: at least degree + 1, at most the curve’s distinct points.';
 }
 
-async function fit() {
+/** Fits the input with the options shown, unless that exact fit is already shown or under way
+ * (`force`: the form was submitted). */
+async function fit(force = false) {
   if (!state.input) return;
+  const url = `/v1/fit?${query()}`;
+  if (!force && state.lastFit && state.lastFit.url === url && state.lastFit.input === state.input) return;
+  state.lastFit = { url, input: state.input };
   const gen = ++state.fitGen;
   if (state.abort) state.abort.abort();
   const abort = new AbortController();
   state.abort = abort;
   clearProblem();
-  const url = `/v1/fit?${query()}`;
   el.request.textContent = `POST ${url}`;
   el.request.dataset.url = url;
+  el.cancel.hidden = false;
   setStatus('fitting', `Fitting ${state.input.features.length} feature${state.input.features.length === 1 ? '' : 's'} (${fmtInt(state.input.positions)} positions)…`);
   const t0 = performance.now();
   let res;
@@ -212,14 +217,18 @@ async function fit() {
     text = await res.text();
   } catch (e) {
     if (gen !== state.fitGen) return;
+    el.cancel.hidden = true;
     state.result = null;
     renderTable();
     updateDownloads();
-    setStatus('error', `The request failed: ${e.message}. Is the server still running?`);
+    if (e.name !== 'AbortError') state.lastFit = null;
+    if (e.name === 'AbortError') setStatus('idle', 'Fit cancelled; change an option or press Enter in a field to fit again.');
+    else setStatus('error', `The request failed: ${e.message}. Is the server still running?`);
     draw();
     return;
   }
   if (gen !== state.fitGen) return;
+  el.cancel.hidden = true;
   const ms = Math.round(performance.now() - t0);
   if (!res.ok) {
     state.result = null;
@@ -505,6 +514,7 @@ function renderTable() {
   }
   const notes = [
     'Errors are the API’s: parametric geodesic errors of the returned spline at each input point, in metres.',
+    'The colours of the input points on the map are computed by this page, since the API reports errors per feature, not per point: each point’s distance to the nearest point of its feature’s fitted line as returned (great-circle steps between the output positions), so it also includes the sampling deviation of the output line.',
   ];
   if (anyComputed) notes.push('* computed by the page from properties.fit.spline: 2 numbers per control point, each interior knot (unless knots are uniform) and the degree; ratio = 2 × points in / numbers stored.');
   if (!tw) notes.push('This server reports no two-way (Hausdorff) distance; the column appears when properties.fit carries one.');
@@ -593,7 +603,7 @@ function updateLegend() {
   el.legend.hidden = false;
   el.legendRamp.style.background = `linear-gradient(to right, ${RAMP.join(',')})`;
   const tol = mode() === 'tolerance';
-  el.legendText.textContent = `Input points coloured by their distance to the fitted line, computed by this page (the API gives errors per feature, not per point): 0 m to ${r.scaleMax.toFixed(1)} m${tol ? ' (the tolerance; darker is past it)' : ''}. Largest: ${r.maxDistance.toFixed(1)} m.`;
+  el.legendText.textContent = `Point colour: distance to the fitted line, 0 to ${r.scaleMax.toFixed(1)} m${tol ? ' (the tolerance)' : ''}; largest ${r.maxDistance.toFixed(1)} m. Computed by this page.`;
 }
 
 function viewGeometry() {
@@ -814,7 +824,7 @@ function wire() {
   });
   el.form.addEventListener('submit', (e) => {
     e.preventDefault();
-    fit();
+    fit(true);
   });
   el.form.addEventListener('change', (e) => {
     if (e.target === el.showControl || e.target === el.showPoints) {
@@ -827,6 +837,10 @@ function wire() {
   for (const input of [el.tolerance, el.cp]) input.addEventListener('input', () => refitSoon());
   el.dlFitted.addEventListener('click', () => download(`${baseName()}.fitted.geojson`, state.result.text));
   el.dlCurves.addEventListener('click', () => download(`${baseName()}.curves.geojson`, compactCurves()));
+  el.cancel.addEventListener('click', () => {
+    clearTimeout(refitTimer);
+    if (state.abort) state.abort.abort();
+  });
   $('zoom-in').addEventListener('click', () => zoomBy(1.6));
   $('zoom-out').addEventListener('click', () => zoomBy(1 / 1.6));
   $('zoom-fit').addEventListener('click', fitView);

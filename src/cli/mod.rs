@@ -90,7 +90,9 @@ pub(crate) fn read_json(path: Option<&PathBuf>) -> Result<serde_json::Value, Fai
     serde_json::from_str(&text).map_err(|e| Failure::input(format!("{name}: invalid JSON: {e}")))
 }
 
-/// Writes `value` as one line of JSON to stdout. A closed pipe ends quietly.
+/// Writes `value` as one line of JSON to stdout. A closed pipe (`| head`) ends quietly with
+/// status 0, as usual for filters; any other write error (a full disk) is exit status 2. (A
+/// stdout closed with `>&-` is reopened on /dev/null by the Rust runtime before `main`.)
 pub(crate) fn write_json<T: serde::Serialize>(value: &T) -> Result<(), Failure> {
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());

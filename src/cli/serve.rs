@@ -111,7 +111,12 @@ const MAX_SECONDS: f64 = 366.0 * 86_400.0;
 fn seconds(flag: &str, s: f64) -> Result<Duration, Failure> {
     if !(s.is_finite() && s > 0.0 && s <= MAX_SECONDS) {
         return Err(Failure::input(format!(
-            "{flag} {s}: give a number of seconds greater than 0 and at most {MAX_SECONDS}"
+            "{flag} {}: give a number of seconds greater than 0 and at most {MAX_SECONDS}",
+            if s.abs() >= 1e9 {
+                format!("{s:e}")
+            } else {
+                s.to_string()
+            }
         )));
     }
     Ok(Duration::from_secs_f64(s))

@@ -133,6 +133,13 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
         .with_step(a.step)
         .with_solver(a.solver);
     options.control_points = a.control_points;
+    if let Some(t) = a.target_max_error_rad {
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(Failure::input(format!(
+                "--target-max-error-rad {t}: the target must be a number of radians >= 0"
+            )));
+        }
+    }
     options.target_max_error_rad = a.target_max_error_rad;
     if let Some(tolerance_rad) = a.tolerance_rad {
         return tolerance_cmd(&input, tolerance_rad, a.degree, a.parameterization);
@@ -229,6 +236,11 @@ fn evaluate_cmd(a: EvaluateArgs) -> Result<(), Failure> {
                 )));
             }
             ts
+        }
+        None if a.samples == 0 => {
+            return Err(Failure::input(
+                "--samples: 0 points: give at least 1 (the service says the same)",
+            ))
         }
         None if a.samples > MAX_SAMPLES => {
             return Err(Failure::input(format!(

@@ -264,8 +264,8 @@ pub fn spline_from_json(v: &Value) -> Result<SphericalBSpline, InputError> {
 
 /// The document of a tolerance fit (`sphere fit --tolerance-rad`, `POST /v1/sphere/fit?tolerance_rad=`):
 /// `{"spline", "parameters", "metrics": {max, mean, rms error in radians}, "tolerance":
-/// {"tolerance_rad", "tolerance_met", "degree", "knot_rule", "stored_numbers", "input_numbers",
-/// "compression_ratio"}}`.
+/// {"tolerance_rad", "tolerance_met", "two_way_distance_rad", "curve_length_ratio", "degree",
+/// "knot_rule", "stored_numbers", "input_numbers", "compression_ratio"}}`.
 pub fn tolerance_document(
     r: &crate::sphere::compress::tolerance::ToleranceFit,
 ) -> serde_json::Value {
@@ -280,6 +280,8 @@ pub fn tolerance_document(
         "tolerance": {
             "tolerance_rad": r.tolerance_rad,
             "tolerance_met": r.tolerance_met,
+            "two_way_distance_rad": r.two_way_rad,
+            "curve_length_ratio": r.curve_length_ratio,
             "degree": r.degree,
             "knot_rule": r.knot_rule,
             "stored_numbers": r.stored_numbers,

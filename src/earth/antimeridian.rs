@@ -21,6 +21,7 @@
 //! ignored by callers that have none.
 
 use super::lonlat::unit_to_lonlat;
+use crate::sphere::geometry::point::angle_between;
 use geo::{BooleanOps, Coord, LineString, MultiPolygon, Polygon, Rect};
 
 /// A position `[lon_deg, lat_deg, altitude]` (the altitude is meaningless when the data have
@@ -46,19 +47,15 @@ fn normalize3(v: [f64; 3]) -> [f64; 3] {
     }
 }
 
-fn angle3(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    crate::sphere::point::angle_between(a, b)
-}
-
 /// Where the great-circle segment `a -> b` meets the plane `y = 0`, for `a.y` and `b.y` of
 /// opposite signs, and the fraction of the segment's length at which it does.
 fn y_crossing(a: &[f64; 3], b: &[f64; 3]) -> ([f64; 3], f64) {
     let (wa, wb) = (b[1].abs(), a[1].abs());
     let mut c = normalize3([wa * a[0] + wb * b[0], 0.0, wa * a[2] + wb * b[2]]);
     c[1] = 0.0;
-    let total = angle3(a, b);
+    let total = angle_between(a, b);
     let f = if total > 0.0 {
-        (angle3(a, &c) / total).clamp(0.0, 1.0)
+        (angle_between(a, &c) / total).clamp(0.0, 1.0)
     } else {
         0.0
     };

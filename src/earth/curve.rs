@@ -14,7 +14,10 @@ use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline
 use crate::sphere::fit::default_control_points;
 use crate::sphere::metrics::pointwise_errors;
 use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
-use crate::sphere::tolerance::{fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions};
+use crate::sphere::tolerance::{
+    fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions, MAX_LENGTH_RATIO,
+};
+use crate::sphere::two_way::{polyline_length, two_way_distance, TwoWayOptions};
 use crate::sphere::AnyCurve;
 use crate::sphere::{fit, FitOptions, PointSet, SphereError, SphericalBSpline};
 use serde_json::{json, Map, Value};
@@ -380,6 +383,7 @@ pub fn fit_line(
             converged,
             knots: serde_json::to_value(options.knots).expect("enum serialises"),
             parameterization: options.parameterization,
+            sampling_aim_rad: None,
         },
         pointer,
         path,
@@ -402,6 +406,8 @@ struct Fitted<'a> {
     converged: bool,
     knots: Value,
     parameterization: crate::sphere::Parameterization,
+    /// What automatic dense sampling aims for; by default a share of the max error.
+    sampling_aim_rad: Option<f64>,
 }
 
 /// Measures a fitted curve as returned, samples it and writes its `properties.fit` fields.
@@ -425,6 +431,7 @@ fn finish_fit(
         converged,
         knots,
         parameterization,
+        sampling_aim_rad,
     } = f;
     let control_points = spline.control_points().len();
     // Errors of the spline as returned, each distinct position counted once per input copy.
@@ -439,7 +446,7 @@ fn finish_fit(
     let dense = sample(
         &spline,
         ring_sampling(output.sampling, closed),
-        auto_tolerance_rad(max_rad),
+        sampling_aim_rad.unwrap_or_else(|| auto_tolerance_rad(max_rad)),
         sampling_start(control_points),
         limits.max_samples,
     )
@@ -547,9 +554,17 @@ pub fn fit_line_to_tolerance(
     } else {
         tol_rad
     };
+    // The dense output adds its deviation to the curve's distance from the line: aim below the
+    // tolerance by that much too, so the returned geometry also stays within it.
+    let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
+    if target - dense_margin > 0.5 * tol_rad {
+        target -= dense_margin;
+    }
+    // No control-point cap below the input's own size here: a long line at a small tolerance
+    // may need nearly a control point per position, and the input limits already bound that.
     let mut topts = ToleranceOptions {
         parameterization: options.parameterization,
-        max_control_points: Some(limits.max_control_points.min(distinct.len())),
+        max_control_points: Some(distinct.len()),
         ..ToleranceOptions::default()
     };
     topts.degrees.retain(|&p| p <= options.degree.max(1));
@@ -562,6 +577,22 @@ pub fn fit_line_to_tolerance(
             r.spline.clone()
         };
         let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
+        // The two-way distance of the curve as returned (rounded, and closed for a ring).
+        let tw = two_way_distance(
+            &spline,
+            &points,
+            &r.parameters,
+            &TwoWayOptions::default()
+                .with_precision_rad(REPORT_TWO_WAY_PRECISION * tol_rad)
+                .with_max_evaluations(4_000_000 + 400 * points.len()),
+        )
+        .map_err(fit_err)?;
+        let input_len = polyline_length(&points);
+        let length_ratio = if input_len > 0.0 {
+            tw.curve_length_rad / input_len
+        } else {
+            1.0
+        };
         let stored = stored_numbers(&spline, r.knot_rule);
         let knot_rule = serde_json::to_value(r.knot_rule).expect("enum serialises");
         let (mut out, max_rad) = finish_fit(
@@ -576,6 +607,9 @@ pub fn fit_line_to_tolerance(
                 converged: false,
                 knots: knot_rule.clone(),
                 parameterization: options.parameterization,
+                // The margin the fit left for the dense output, so the returned geometry
+                // stays within the tolerance too.
+                sampling_aim_rad: Some(dense_margin),
             },
             pointer,
             path.clone(),
@@ -583,11 +617,14 @@ pub fn fit_line_to_tolerance(
             output,
             limits,
         )?;
-        let met = max_rad <= tol_rad && round_m(rad_to_m(max_rad)) <= tolerance_m;
-        if !met && r.tolerance_met && attempt == 0 && max_rad > tol_rad {
+        let worst = max_rad.max(tw.upper_rad);
+        let met = worst <= tol_rad
+            && round_m(rad_to_m(worst)) <= tolerance_m
+            && tw.curve_length_rad <= MAX_LENGTH_RATIO * input_len + tol_rad;
+        if !met && r.tolerance_met && attempt == 0 && worst > tol_rad {
             // Rounding (or closing the ring) took a fit that met its target over the
             // tolerance: aim lower by the excess, once.
-            let lower = target - 2.0 * (max_rad - tol_rad) - bound;
+            let lower = target - 2.0 * (worst - tol_rad) - bound;
             if lower > 0.25 * tol_rad {
                 target = lower;
                 attempt += 1;
@@ -599,6 +636,14 @@ pub fn fit_line_to_tolerance(
         f.insert("converged".into(), json!(met));
         f.insert("tolerance_m".into(), json!(tolerance_m));
         f.insert("tolerance_met".into(), json!(met));
+        f.insert(
+            "two_way_distance_m".into(),
+            json!(round_up_m(rad_to_m(tw.upper_rad))),
+        );
+        f.insert(
+            "curve_length_ratio".into(),
+            json!(round_to(length_ratio, 4)),
+        );
         f.insert("degree".into(), json!(r.degree));
         f.insert("knot_rule".into(), knot_rule);
         f.insert("stored_numbers".into(), json!(stored));
@@ -609,6 +654,14 @@ pub fn fit_line_to_tolerance(
         out.report.stored_numbers = stored;
         return Ok(out);
     }
+}
+
+/// Precision of the reported two-way distance, as a share of the tolerance.
+const REPORT_TWO_WAY_PRECISION: f64 = 0.01;
+
+/// Metres rounded up to millimetres: for bounds, which must not shrink in print.
+fn round_up_m(x: f64) -> f64 {
+    (x * 1000.0).ceil() / 1000.0
 }
 
 /// Numbers a B-spline stores ([`stored_numbers`]), its knots counted unless they are the clamped

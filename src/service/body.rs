@@ -45,9 +45,15 @@ pub(crate) async fn drain(body: Body, max_bytes: usize) {
     }
 }
 
+/// Most bytes of a rejected body read and discarded: a few times the body limit (nothing is
+/// kept, so this costs time, bounded by [`DRAIN_TIMEOUT`], and no memory).
+pub(crate) fn drain_bound(max_body_bytes: usize) -> usize {
+    max_body_bytes.saturating_mul(4).saturating_add(1 << 20)
+}
+
 /// `e`, after reading what is left of `body` (see the module docs).
 pub(crate) async fn reject(state: &AppState, body: Body, e: ApiError) -> ApiError {
-    drain(body, state.config.max_body_bytes).await;
+    drain(body, drain_bound(state.config.max_body_bytes)).await;
     e
 }
 

@@ -7,6 +7,8 @@
 //! |---|---|---|
 //! | 400 | `malformed-json` | the body is not JSON (syntax, nesting deeper than 128) |
 //! | 400 | `invalid-query` | unknown, repeated, empty or unparsable query parameter |
+//! | 400 | `unreadable-body` | the body was cut short or the connection failed |
+//! | 408 | `body-timeout` | the body did not arrive within the body timeout |
 //! | 404 | `not-found` | no such path |
 //! | 405 | `method-not-allowed` | wrong method for the path |
 //! | 413 | `body-too-large` | body over the byte limit |
@@ -185,6 +187,8 @@ pub fn title_of(slug: &str) -> &'static str {
         "malformed-json" => "Malformed JSON",
         "invalid-query" => "Invalid query parameter",
         "unreadable-body" => "Unreadable body",
+        "body-timeout" => "Request body too slow",
+        "non-finite" => "Result not finite",
         "unsupported-media-type" => "Unsupported media type",
         "body-too-large" => "Request body too large",
         "too-many-points" => "Too many points",

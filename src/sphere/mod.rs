@@ -4,6 +4,7 @@
 //! on it. Every public result is a unit vector (|norm - 1| < 1e-12).
 
 pub mod cancel;
+pub mod certify;
 pub mod compress;
 pub mod curve;
 pub mod fit;
@@ -14,6 +15,7 @@ pub(crate) mod linalg;
 // The flat module paths from before the folders, kept so code written against them compiles.
 #[doc(hidden)]
 pub use crate::document;
+pub use certify::{bounds, dense, two_way};
 pub use compress::{simplify, tolerance};
 pub use curve::{bezier, bspline};
 pub use fit::{knots, metrics};

@@ -85,7 +85,7 @@ test('every control has an accessible name (Chromium accessibility tree)', async
   const cdp = await browser.newCDPSession(page);
   const { nodes } = await cdp.send('Accessibility.getFullAXTree');
   const controls = nodes.filter((n) => ['textbox', 'spinbutton', 'combobox', 'checkbox', 'radio', 'button', 'slider'].includes(n.role?.value) && !n.ignored);
-  const domCount = await page.evaluate(() => document.querySelectorAll('input, select, button').length);
+  const domCount = await page.evaluate(() => [...document.querySelectorAll('input, select, button')].filter((e) => !e.closest('[hidden]')).length);
   assert.ok(controls.length >= domCount, `${controls.length} controls in the tree, ${domCount} in the DOM`);
   for (const n of controls) assert.ok((n.name?.value || '').trim().length > 0, `a ${n.role.value} without a name`);
   const names = controls.map((n) => n.name.value);
@@ -99,7 +99,7 @@ test('every control has an accessible name (Chromium accessibility tree)', async
 
 test('Tab reaches every enabled control and the map, and keys move the map', async () => {
   // Radio buttons are one stop (the checked one); arrow keys move within the group.
-  const want = await page.evaluate(() => [...document.querySelectorAll('input:not([disabled]):not([type="radio"]), input[type="radio"]:checked, select:not([disabled]), button:not([disabled]), #map')].map((e) => e.id || e.name + ':' + e.value));
+  const want = await page.evaluate(() => [...document.querySelectorAll('input:not([disabled]):not([type="radio"]), input[type="radio"]:checked, select:not([disabled]), button:not([disabled]), #map')].filter((e) => !e.closest('[hidden]')).map((e) => e.id || e.name + ':' + e.value));
   await page.evaluate(() => document.activeElement?.blur());
   const seen = new Set();
   for (let i = 0; i < 60 && seen.size < want.length; i++) {
@@ -195,6 +195,32 @@ test('the downloads are the API’s answer and its compact curves', async () => 
   const back = await api('/v1/evaluate', curves);
   assert.equal(back.status, 200, back.text);
   assert.equal(JSON.parse(back.text).features[2].geometry.type, 'LineString');
+});
+
+test('a slow fit can be cancelled and leaves no stale numbers', async () => {
+  // Hold the next fit request back, as a large file on a busy server would be.
+  let release;
+  const held = new Promise((ok) => { release = ok; });
+  await page.route('**/v1/fit?*', async (route) => { await held; await route.continue().catch(() => {}); });
+  try {
+    await page.fill('#tolerance', '250');
+    await page.waitForFunction(() => document.getElementById('status').dataset.state === 'fitting');
+    assert.ok(await page.isVisible('#cancel'));
+    await page.click('#cancel');
+    await page.waitForFunction(() => document.getElementById('status').dataset.state === 'idle');
+    assert.match(await page.innerText('#status'), /cancelled/);
+    assert.ok(await page.isHidden('#cancel'));
+    assert.equal(await page.locator('#features tbody tr').count(), 0);
+  } finally {
+    release();
+    await page.unroute('**/v1/fit?*');
+  }
+  // Enter in a field fits again.
+  await page.press('#tolerance', 'Enter');
+  await waitForFit('tolerance_m=250');
+  assert.equal(await page.getAttribute('#status', 'data-state'), 'done');
+  await page.fill('#tolerance', '500');
+  await waitForFit('tolerance_m=500');
 });
 
 test('other options refit on change and a control-point fit is listed the same way', async () => {

@@ -1,4 +1,4 @@
-//! Spherical Beta-spline interpolation (issue 3): interpolation residual, G1 joints with the
+//! Spherical Beta-spline interpolation: interpolation residual, G1 joints with the
 //! speed ratio beta1, the natural-spline limit, the paper's examples, S^2 / S^3 / S^14, explicit
 //! failures, and the `sphere interpolate` / `sphere evaluate` commands.
 

@@ -580,7 +580,7 @@ fn fit_with_the_fast_solver() {
     assert!(gn["metrics"]["iterations"].as_u64().unwrap() < 30);
 }
 
-/// `--tolerance-rad` (issue 7 on S^n): the reported max error, and a recomputation through
+/// `--tolerance-rad`: the reported max error, and a recomputation through
 /// `sphere evaluate` at the returned parameters, are within the tolerance when it is met.
 #[test]
 fn fit_to_a_tolerance_reports_what_it_met() {

@@ -337,7 +337,7 @@ fn points_from_a_spline_refitted_with_its_own_knots_reach_1e_8_rad() {
     assert!(chord.metrics.max_error_rad > 1e-4);
 }
 
-/// Issue 6: the fast solver (Gauss–Newton on the same loss) reaches, in a few passes, what
+/// The fast solver (Gauss–Newton on the same loss) reaches, in a few passes, what
 /// GLS-PIA reaches in 2000 iterations (within 0.1%, or better), and is never worse than the
 /// paper's 30 iterations.
 #[test]
@@ -374,7 +374,7 @@ fn gauss_newton_reaches_the_long_run_gls_pia_optimum_on_every_stand_in() {
     }
 }
 
-/// Issue 6: on noise-free samples of a spherical B-spline, fitted with its own knots, the fast
+/// On noise-free samples of a spherical B-spline, fitted with its own knots, the fast
 /// solver gets below 1e-10 rad within 10 iterations (GLS-PIA needs about 250 for 1e-8).
 #[test]
 fn gauss_newton_recovers_a_spline_below_1e_10_rad_in_10_iterations() {

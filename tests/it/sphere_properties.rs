@@ -1,4 +1,4 @@
-//! Property tests of the S^n core (issue 2, "Done when", first item): SLERP endpoints, symmetry
+//! Property tests of the S^n core: SLERP endpoints, symmetry
 //! and results on the sphere; log/exp round trips; splines with equal control points are
 //! constant; clamped ends interpolate; de Boor with SLERP agrees with an independent
 //! implementation; `Σ D_i P_i = C(u)` within 1e-12; every output within 1e-12 of unit norm; and

@@ -27,7 +27,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 /// Input bytes allowed in flight at once (one record always gets in). 64 MiB keeps the peak
-/// well under the 300 MB goal even when output is many times larger than input.
+/// bounded even when output is many times larger than input.
 pub const WINDOW_BYTES: usize = 64 << 20;
 
 /// Units in flight per worker thread: enough that a slow feature does not starve the pool
@@ -124,6 +124,26 @@ pub fn label(names: &[String], at: &Position) -> String {
     }
 }
 
+/// Runs the processing of one feature so that nothing in it, not even a panic (a bug), can take
+/// the records after it down: a panic is reported as that feature's error.
+fn guarded(
+    f: impl FnOnce() -> Result<ProcessedFeature, EarthError>,
+) -> Result<ProcessedFeature, String> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(r) => r.map_err(|e| e.to_string()),
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(format!(
+                "internal error while processing this feature (a bug, please report it): {what}"
+            ))
+        }
+    }
+}
+
 /// Parses (when needed), processes and serialises one record.
 pub fn process(
     body: Body,
@@ -141,7 +161,7 @@ pub fn process(
         },
         Body::Document(v) => out.document(v, &label, job, allow_spline),
         Body::Feature { value, pointer } => {
-            out.add(process_feature(&value, &pointer, job), &label);
+            out.add(guarded(|| process_feature(&value, &pointer, job)), &label);
         }
     }
     out
@@ -153,7 +173,7 @@ impl Processed {
         match Document::parse(v, allow_spline) {
             Ok(doc) => {
                 for slot in &doc.slots {
-                    self.add(slot.process(job), label);
+                    self.add(guarded(|| slot.process(job)), label);
                 }
             }
             Err(e) => self.errors.push(format!("{label}: {e}")),
@@ -161,7 +181,7 @@ impl Processed {
     }
 
     /// Adds the result of one feature.
-    fn add(&mut self, r: Result<ProcessedFeature, EarthError>, label: &str) {
+    fn add(&mut self, r: Result<ProcessedFeature, String>, label: &str) {
         let p = match r {
             Ok(p) => p,
             Err(e) => return self.errors.push(format!("{label}: {e}")),

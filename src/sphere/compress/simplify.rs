@@ -12,7 +12,7 @@
 //! O(n log n) on typical lines, O(n²) in the worst case, like the planar algorithm.
 
 use crate::sphere::geometry::point::{
-    diff_sum_sq, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
+    angle, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
 };
 
 /// Arcs shorter than this are treated as a point: the plane they span is undefined to rounding
@@ -22,17 +22,32 @@ const DEGENERATE_ARC_RAD: f64 = 1e-12;
 
 /// A minor great-circle arc prepared for many distance queries: `e1 = a`, `e2` the unit tangent
 /// at `a` towards `b`, and the arc's angle.
-struct ArcFrame {
-    e1: Vec<f64>,
-    e2: Vec<f64>,
+pub(crate) struct ArcFrame {
+    pub(crate) e1: Vec<f64>,
+    pub(crate) e2: Vec<f64>,
     b: Vec<f64>,
-    theta: f64,
+    pub(crate) theta: f64,
     /// The end points are (nearly) antipodal: the minor arc is undefined.
     antipodal: bool,
 }
 
 impl ArcFrame {
-    fn new<D: Dim>(d: D, a: &[f64], b: &[f64]) -> ArcFrame {
+    /// The arc has (next to) no length: distances are to its start point.
+    pub(crate) fn degenerate(&self) -> bool {
+        self.theta < DEGENERATE_ARC_RAD
+    }
+
+    /// [`distance_to_arc`] for this arc, in the runtime dimension.
+    pub(crate) fn distance_dyn(&self, q: &[f64]) -> f64 {
+        let d = crate::sphere::geometry::point::Dynamic(self.e1.len());
+        if self.antipodal {
+            angle(d, q, &self.e1).min(angle(d, q, &self.b))
+        } else {
+            self.distance(d, q)
+        }
+    }
+
+    pub(crate) fn new<D: Dim>(d: D, a: &[f64], b: &[f64]) -> ArcFrame {
         let dim = d.get();
         let theta = Arc::between(d, a, b).theta;
         let cos = dot(d, a, b);
@@ -50,8 +65,8 @@ impl ArcFrame {
     }
 
     #[inline(always)]
-    fn distance<D: Dim>(&self, d: D, q: &[f64]) -> f64 {
-        let end_a = || angle_of(d, q, &self.e1);
+    pub(crate) fn distance<D: Dim>(&self, d: D, q: &[f64]) -> f64 {
+        let end_a = || angle(d, q, &self.e1);
         if self.theta < DEGENERATE_ARC_RAD {
             return end_a();
         }
@@ -70,15 +85,9 @@ impl ArcFrame {
             }
             perp_sq.sqrt().atan2(x.hypot(y))
         } else {
-            end_a().min(angle_of(d, q, &self.b))
+            end_a().min(angle(d, q, &self.b))
         }
     }
-}
-
-#[inline(always)]
-fn angle_of<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
-    let (m2, p2) = diff_sum_sq(d, a, b);
-    2.0 * m2.sqrt().atan2(p2.sqrt())
 }
 
 /// Geodesic distance (radians) from unit vector `q` to the minor great-circle arc from `a` to
@@ -103,7 +112,7 @@ pub fn distance_to_arc(q: &[f64], a: &[f64], b: &[f64]) -> f64 {
     crate::with_dim!(q.len(), |d| {
         let frame = ArcFrame::new(d, a, b);
         if frame.antipodal {
-            angle_of(d, q, a).min(angle_of(d, q, b))
+            angle(d, q, a).min(angle(d, q, b))
         } else {
             frame.distance(d, q)
         }
@@ -190,7 +199,7 @@ pub fn max_deviation(points: &PointSet, kept: &[usize]) -> f64 {
             for j in w[0] + 1..w[1] {
                 let q = points.get(j);
                 let e = if frame.antipodal {
-                    angle_of(d, q, a).min(angle_of(d, q, b))
+                    angle(d, q, a).min(angle(d, q, b))
                 } else {
                     frame.distance(d, q)
                 };
@@ -220,14 +229,14 @@ mod tests {
         }
         // Beyond b and before a: the distance to the end point, not to the great circle.
         let q = on_equator(0.7, 0.01);
-        let expected = angle_of(crate::sphere::geometry::point::Fixed::<3>, &q, &b);
+        let expected = angle(crate::sphere::geometry::point::Fixed::<3>, &q, &b);
         assert_relative_eq!(distance_to_arc(&q, &a, &b), expected, max_relative = 1e-14);
         assert!(expected > 0.2);
         let q = on_equator(-0.1, 0.0);
         assert_relative_eq!(distance_to_arc(&q, &a, &b), 0.1, max_relative = 1e-14);
         // A degenerate arc is its point.
         let q = on_equator(0.3, 0.4);
-        let expected = angle_of(crate::sphere::geometry::point::Fixed::<3>, &q, &a);
+        let expected = angle(crate::sphere::geometry::point::Fixed::<3>, &q, &a);
         assert_relative_eq!(distance_to_arc(&q, &a, &a), expected, max_relative = 1e-14);
     }
 

@@ -72,6 +72,9 @@
 //! (the bench prints the times), single-threaded.
 
 use super::simplify::douglas_peucker;
+use crate::sphere::certify::two_way::{
+    polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
+};
 use crate::sphere::curve::bspline::{
     clamped_uniform_knots, with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
 };
@@ -80,7 +83,7 @@ use crate::sphere::fit::knots::{
 };
 use crate::sphere::fit::metrics::{measure, ErrorMetrics};
 use crate::sphere::geometry::point::{
-    angle_from_chords, diff_sum_sq, dot, normalize, sinc, slerp, Dim, PointSet,
+    angle, angle_from_chords, diff_sum_sq, dot, exp_in_place, slerp, Dim, PointSet,
     SERIES_ANGLE_MAX_RAD,
 };
 use crate::sphere::linalg::banded::SymmetricBand;
@@ -109,9 +112,16 @@ pub struct Candidate {
     pub control_points: usize,
     /// Numbers that curve stores ([`stored_numbers`]).
     pub stored_numbers: usize,
-    /// Its largest distance to a point, radians.
+    /// Vertex error (parametric, at the curve's data parameters).
     pub max_error_rad: f64,
-    /// Whether every point is within the tolerance.
+    /// The fitter only decides whether the certified two-way distance to the input polyline
+    /// (see [`crate::sphere::two_way`]) is within the tolerance: for a curve that meets it,
+    /// the proven bound found (at most the tolerance); for one that does not, the distance of
+    /// a curve point or vertex found beyond the tolerance (a lower bound of the distance).
+    pub two_way_rad: f64,
+    /// Curve length over input polyline length.
+    pub curve_length_ratio: f64,
+    /// Two-way distance within the tolerance and length ratio within [`MAX_LENGTH_RATIO`].
     pub tolerance_met: bool,
 }
 
@@ -219,9 +229,15 @@ pub struct ToleranceFit {
     /// Errors at those parameters (the parametric geodesic error, radians), measured afresh
     /// on the returned curve.
     pub metrics: ErrorMetrics,
+    /// Certified upper bound of the two-way distance between the curve and the input polyline,
+    /// with the points matched in order at `parameters` ([`crate::sphere::two_way`]), radians.
+    pub two_way_rad: f64,
+    /// The curve's length over the input polyline's length.
+    pub curve_length_ratio: f64,
     /// The tolerance asked for, radians.
     pub tolerance_rad: f64,
-    /// `metrics.max_error_rad <= tolerance_rad`.
+    /// `two_way_rad <= tolerance_rad` (so also every vertex error), and the curve no longer
+    /// than [`MAX_LENGTH_RATIO`] times the input.
     pub tolerance_met: bool,
     /// The degree chosen.
     pub degree: usize,
@@ -317,23 +333,221 @@ pub fn fit_to_tolerance(
         });
     }
     let cap = options.max_control_points.unwrap_or(n).max(2);
-    let target = internal_target(tolerance_rad);
-    let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
     let mut degrees = degrees;
     degrees.sort_unstable();
     degrees.dedup();
-    for &p in &degrees {
+    let input_length = polyline_length(points);
+    let measure_options = TwoWayOptions::default()
+        .with_precision_rad(TWO_WAY_PRECISION * tolerance_rad)
+        .with_max_evaluations(two_way_budget(n));
+    // Candidates are only asked "within the tolerance?": intervals proven under it are not
+    // refined further, and a sample beyond it ends the check.
+    let tw_options = measure_options
+        .clone()
+        .deciding(tolerance_rad)
+        .with_max_evaluations(decide_budget(n));
+    let mut candidates: Vec<Candidate> = Vec::new();
+    // The best curve that misses, by two-way distance, in case nothing meets.
+    let mut best_miss: Option<(Curve, ErrorMetrics, TwoWayDistance)> = None;
+    let mut chosen: Option<(Curve, ErrorMetrics, TwoWayDistance)> = None;
+    // The curve closest at the vertices among those that miss even the vertex target, for
+    // when nothing else is left (parameters that repeat for distinct points, a cap).
+    let mut closest: Option<(Curve, ErrorMetrics)> = None;
+    // Douglas–Peucker's polyline is the yardstick: a curve storing more numbers than it is
+    // never worth proving.
+    let fallbacks = polyline_candidates(points, &base_params, free, tolerance_rad);
+    let yardstick = fallbacks
+        .first()
+        .map(|c| stored_numbers(&c.spline, c.rule))
+        .unwrap_or(usize::MAX);
+    'shares: for &share in VERTEX_SHARES.iter() {
+        let (found, near) = search(
+            points,
+            &base_params,
+            free,
+            internal_target(share * tolerance_rad),
+            cap,
+            options,
+            &degrees,
+        )?;
+        if let Some((c, m)) = near {
+            if closest
+                .as_ref()
+                .is_none_or(|(_, b)| m.max_error_rad < b.max_error_rad)
+            {
+                closest = Some((c, m));
+            }
+        }
+        // Fewest stored numbers first among the curves that meet the vertex target.
+        let mut order: Vec<usize> = (0..found.len()).collect();
+        order.sort_by_key(|&i| stored_numbers(&found[i].0.spline, found[i].0.rule));
+        let mut found: Vec<Option<(Curve, ErrorMetrics)>> = found.into_iter().map(Some).collect();
+        for i in order {
+            let (c, m) = found[i].take().expect("each curve is taken once");
+            if stored_numbers(&c.spline, c.rule) >= yardstick {
+                break;
+            }
+            let tw = two_way_distance(&c.spline, points, &c.params, &tw_options)?;
+            let met = accepts(&tw, tolerance_rad, input_length);
+            candidates.push(candidate(&c, &m, &tw, met, input_length));
+            if met {
+                chosen = Some((c, m, tw));
+                break 'shares;
+            }
+            if best_miss
+                .as_ref()
+                .is_none_or(|b| miss_score(&tw) < miss_score(&b.2))
+            {
+                best_miss = Some((c, m, tw));
+            }
+        }
+    }
+    if chosen.is_none() {
+        // Towards the polyline: Douglas–Peucker's vertices, then every point.
+        for c in fallbacks
+            .into_iter()
+            .filter(|c| c.spline.control_points().len() <= cap)
+        {
+            let m = measure(&c.spline, points, &c.params);
+            let tw = two_way_distance(&c.spline, points, &c.params, &tw_options)?;
+            let met = accepts(&tw, tolerance_rad, input_length);
+            candidates.push(candidate(&c, &m, &tw, met, input_length));
+            if met {
+                chosen = Some((c, m, tw));
+                break;
+            }
+            if best_miss
+                .as_ref()
+                .is_none_or(|b| miss_score(&tw) < miss_score(&b.2))
+            {
+                best_miss = Some((c, m, tw));
+            }
+        }
+    }
+    let met = chosen.is_some();
+    let (curve, metrics, decided) = match chosen.or(best_miss) {
+        Some((c, m, tw)) => (c, m, Some(tw.upper_rad)),
+        None => {
+            let (c, m) = closest.ok_or(SphereError::NoValidFit)?;
+            (c, m, None)
+        }
+    };
+    // The decision said yes or no; the report gives the distance itself. Both are proven
+    // upper bounds, so the smaller one is.
+    let mut tw = two_way_distance(&curve.spline, points, &curve.params, &measure_options)?;
+    if let Some(d) = decided {
+        tw.upper_rad = tw.upper_rad.min(d);
+    }
+    let stored = stored_numbers(&curve.spline, curve.rule);
+    let input_numbers = polyline_numbers(n, points.dim());
+    Ok(ToleranceFit {
+        degree: curve.spline.degree(),
+        knot_rule: curve.rule,
+        tolerance_met: met,
+        parameters: curve.params,
+        spline: curve.spline,
+        metrics,
+        two_way_rad: tw.upper_rad,
+        curve_length_ratio: length_ratio(tw.curve_length_rad, input_length),
+        tolerance_rad,
+        stored_numbers: stored,
+        input_numbers,
+        compression_ratio: input_numbers as f64 / stored as f64,
+        candidates,
+    })
+}
+
+/// The shares of the tolerance the vertex errors are fitted to, tried in turn until a curve's
+/// two-way distance meets the tolerance: the curve strays between the points, so the points
+/// must sit closer than the tolerance; lower shares cost numbers but follow the line tighter.
+pub const VERTEX_SHARES: [f64; 3] = [0.8, 0.55, 0.3];
+
+/// Precision of the two-way distances the fitter decides by, as a share of the tolerance.
+const TWO_WAY_PRECISION: f64 = 0.02;
+
+/// A curve meeting the two-way bound may still be no longer than this many times the input
+/// polyline (plus a tolerance's worth): a curve that wanders within the band is rejected.
+pub const MAX_LENGTH_RATIO: f64 = 1.2;
+
+/// Curve evaluations allowed per two-way check: generous, and linear in the input.
+fn two_way_budget(n: usize) -> usize {
+    4_000_000 + 400 * n
+}
+
+/// Curve evaluations allowed per candidate's decision: real lines need tens of thousands (the
+/// 10m US–Mexico border at 25 m: 22k); a candidate that needs far more (a tolerance tiny
+/// against a curve whose control arcs are near a half turn, where the speed bound is loose) is
+/// not proven and so not taken.
+fn decide_budget(n: usize) -> usize {
+    1_000_000 + 400 * n
+}
+
+fn accepts(tw: &TwoWayDistance, tolerance_rad: f64, input_length: f64) -> bool {
+    tw.upper_rad <= tolerance_rad
+        && tw.curve_length_rad <= MAX_LENGTH_RATIO * input_length + tolerance_rad
+}
+
+/// How far a decided curve is known to be: its proven bound, or, when a sample beyond the
+/// tolerance ended the check, that sample's distance.
+fn miss_score(tw: &TwoWayDistance) -> f64 {
+    if tw.exceeded {
+        tw.lower_rad
+    } else {
+        tw.upper_rad
+    }
+}
+
+fn length_ratio(curve: f64, input: f64) -> f64 {
+    if input > 0.0 {
+        curve / input
+    } else {
+        1.0
+    }
+}
+
+fn candidate(
+    c: &Curve,
+    m: &ErrorMetrics,
+    tw: &TwoWayDistance,
+    met: bool,
+    input_length: f64,
+) -> Candidate {
+    Candidate {
+        degree: c.spline.degree(),
+        knot_rule: c.rule,
+        control_points: c.spline.control_points().len(),
+        stored_numbers: stored_numbers(&c.spline, c.rule),
+        max_error_rad: m.max_error_rad,
+        two_way_rad: miss_score(tw),
+        curve_length_ratio: length_ratio(tw.curve_length_rad, input_length),
+        tolerance_met: met,
+    }
+}
+
+/// Every degree's curves at one vertex target (see the module docs), with honest errors.
+fn search(
+    points: &PointSet,
+    base_params: &[f64],
+    free: bool,
+    target: f64,
+    cap: usize,
+    options: &ToleranceOptions,
+    degrees: &[usize],
+) -> Result<Searched, SphereError> {
+    let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
+    let mut closest: Option<(Curve, ErrorMetrics)> = None;
+    for &p in degrees {
         options.cancel.check()?;
         let budget = found
             .iter()
-            .filter(|(_, m)| m.max_error_rad <= tolerance_rad)
+            .filter(|(_, m)| m.max_error_rad <= target)
             .map(|(c, _)| stored_numbers(&c.spline, c.rule))
             .min();
         let curves = crate::with_dim!(points.dim(), |d| with_degree!(p, |g| fit_degree(
             d,
             g,
             points,
-            &base_params,
+            base_params,
             free,
             target,
             cap,
@@ -343,50 +557,111 @@ pub fn fit_to_tolerance(
         for c in curves {
             // Honest errors: measured afresh by the library's own pass on the returned curve.
             let m = measure(&c.spline, points, &c.params);
-            found.push((c, m));
+            if m.max_error_rad <= target {
+                found.push((c, m));
+            } else if closest
+                .as_ref()
+                .is_none_or(|(_, b): &(Curve, ErrorMetrics)| m.max_error_rad < b.max_error_rad)
+            {
+                closest = Some((c, m));
+            }
         }
     }
     options.cancel.check()?;
-    let candidates: Vec<Candidate> = found
-        .iter()
-        .map(|(c, m)| Candidate {
-            degree: c.spline.degree(),
-            knot_rule: c.rule,
-            control_points: c.spline.control_points().len(),
-            stored_numbers: stored_numbers(&c.spline, c.rule),
-            max_error_rad: m.max_error_rad,
-            tolerance_met: m.max_error_rad <= tolerance_rad,
-        })
-        .collect();
-    let best = (0..found.len())
-        .min_by(|&a, &b| {
-            let (ca, cb) = (&candidates[a], &candidates[b]);
-            cb.tolerance_met
-                .cmp(&ca.tolerance_met)
-                .then(if ca.tolerance_met {
-                    ca.stored_numbers.cmp(&cb.stored_numbers)
+    Ok((found, closest))
+}
+
+/// What [`search`] found: the curves meeting the vertex target, and the one closest to it
+/// among the others.
+type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
+
+/// The polyline fallbacks, degree 1 on uniform knots (none stored): the Douglas–Peucker
+/// vertices at a hair under the tolerance, then (when parameters are free) every point. Each
+/// point's parameter is where it projects on its segment (kept non-decreasing). With given
+/// parameters the knots are the kept points' parameters instead (stored).
+fn polyline_candidates(
+    points: &PointSet,
+    base_params: &[f64],
+    free: bool,
+    tolerance_rad: f64,
+) -> Vec<Curve> {
+    let n = points.len();
+    let mut out = Vec::new();
+    // Douglas–Peucker bounds the vertices' distance to the kept chords; the ordered two-way
+    // distance can be a little more, hence the second try a hair under the tolerance.
+    let dp = douglas_peucker(points, tolerance_rad);
+    let dp_under = douglas_peucker(points, 0.95 * tolerance_rad);
+    let all: Vec<usize> = (0..n).collect();
+    for kept in [dp, dp_under, all] {
+        if let Some(c) = polyline_through(points, base_params, free, &kept) {
+            out.push(c);
+        }
+        if !free {
+            break;
+        }
+    }
+    out
+}
+
+fn polyline_through(
+    points: &PointSet,
+    base_params: &[f64],
+    free: bool,
+    kept: &[usize],
+) -> Option<Curve> {
+    let dim = points.dim();
+    let mut coords = Vec::with_capacity(kept.len() * dim);
+    for &i in kept {
+        coords.extend_from_slice(points.get(i));
+    }
+    let ctrl = PointSet::from_flat_unchecked(dim, coords);
+    let m = kept.len();
+    if free {
+        let knots = clamped_uniform_knots(m, 1);
+        let mut params = Vec::with_capacity(points.len());
+        let mut last: f64 = 0.0;
+        for w in 0..m - 1 {
+            let (a, b) = (points.get(kept[w]), points.get(kept[w + 1]));
+            let theta = crate::sphere::geometry::point::angle_between(a, b);
+            let lo = if w == 0 { kept[0] } else { kept[w] + 1 };
+            for j in lo..=kept[w + 1] {
+                let frac = if j == kept[w + 1] {
+                    1.0
+                } else if theta > 0.0 {
+                    let q = points.get(j);
+                    let ta = crate::sphere::geometry::point::angle_between(a, q);
+                    let tb = crate::sphere::geometry::point::angle_between(q, b);
+                    // Along-track position from the two end distances (law of cosines form).
+                    (0.5 + (ta * ta - tb * tb) / (2.0 * theta * theta)).clamp(0.0, 1.0)
                 } else {
-                    std::cmp::Ordering::Equal
-                })
-                .then(ca.max_error_rad.total_cmp(&cb.max_error_rad))
+                    0.0
+                };
+                let t = ((w as f64 + frac) / (m - 1) as f64).max(last);
+                last = t;
+                params.push(t);
+            }
+        }
+        let last = params.len() - 1;
+        params[last] = 1.0;
+        let spline = SphericalBSpline::try_new(1, knots, ctrl).ok()?;
+        Some(Curve {
+            spline,
+            params,
+            rule: KnotRule::Uniform,
         })
-        .ok_or(SphereError::NoValidFit)?;
-    let (curve, metrics) = found.swap_remove(best);
-    let stored = stored_numbers(&curve.spline, curve.rule);
-    let input_numbers = polyline_numbers(n, points.dim());
-    Ok(ToleranceFit {
-        degree: curve.spline.degree(),
-        knot_rule: curve.rule,
-        tolerance_met: metrics.max_error_rad <= tolerance_rad,
-        parameters: curve.params,
-        spline: curve.spline,
-        metrics,
-        tolerance_rad,
-        stored_numbers: stored,
-        input_numbers,
-        compression_ratio: input_numbers as f64 / stored as f64,
-        candidates,
-    })
+    } else {
+        let mut knots = vec![base_params[kept[0]]; 2];
+        for &i in &kept[1..m - 1] {
+            knots.push(base_params[i]);
+        }
+        knots.extend([base_params[kept[m - 1]]; 2]);
+        let spline = SphericalBSpline::try_new(1, knots, ctrl).ok()?;
+        Some(Curve {
+            spline,
+            params: base_params.to_vec(),
+            rule: KnotRule::Stored,
+        })
+    }
 }
 
 /// The error bound the fitter works to: a hair below the tolerance, so that a fresh measurement
@@ -571,12 +846,6 @@ fn eval_curve<D: Dim, G: Degree, const CONTRIB: bool>(
     k
 }
 
-#[inline(always)]
-fn angle_of<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
-    let (m2, p2) = diff_sum_sq(d, a, b);
-    angle_from_chords(m2, p2).0
-}
-
 impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     fn with_knots(
         d: D,
@@ -752,7 +1021,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             &mut self.scratch,
             &mut self.c,
         );
-        angle_of(self.d, self.points.get(j), &self.c)
+        angle(self.d, self.points.get(j), &self.c)
     }
 
     /// Measures points `j0 .. j1` into `err`; returns (max, sum of squares).
@@ -895,7 +1164,10 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let mut lambda = 0.0;
         let mut saved = vec![0.0; nf * dim];
         for it in 0..iterations {
-            if max <= target || (it >= GIVE_UP_AFTER && max > give_up * target) {
+            if max <= target
+                || (it >= GIVE_UP_AFTER && max > give_up * target)
+                || crate::sphere::cancel::cancelled()
+            {
                 break;
             }
             let mut band = SymmetricBand::zeros(nf, p);
@@ -1220,20 +1492,9 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
 
 /// `P ← exp_P(v)` with `v` projected onto the tangent plane at P.
 fn move_along_geodesic<D: Dim>(d: D, pt: &mut [f64], v: &[f64]) {
-    let dim = d.get();
     let along = dot(d, pt, v);
-    let mut len2 = 0.0;
-    for x in 0..dim {
-        let t = v[x] - along * pt[x];
-        len2 += t * t;
-    }
-    let len = len2.sqrt();
-    let (c, s) = (len.cos(), sinc(len));
-    for x in 0..dim {
-        let t = v[x] - along * pt[x];
-        pt[x] = c * pt[x] + s * t;
-    }
-    normalize(d, pt);
+    let t: Vec<f64> = (0..d.get()).map(|x| v[x] - along * pt[x]).collect();
+    exp_in_place(d, pt, &t);
 }
 
 #[cfg(test)]
@@ -1308,9 +1569,21 @@ mod tests {
         );
         let again = measure(&fit.spline, &pts, &fit.parameters);
         assert_eq!(again.max_error_rad, fit.metrics.max_error_rad);
+        // Without removal the curve is the Douglas–Peucker seed at the first vertex share.
         let no_removal =
             fit_to_tolerance(&pts, None, tol, &opts.clone().with_reduce(false)).unwrap();
-        assert_eq!(no_removal.spline.control_points().len(), dp);
+        let seed = douglas_peucker(&pts, internal_target(VERTEX_SHARES[0] * tol)).len();
+        assert_eq!(no_removal.spline.control_points().len(), seed);
+        // The two-way distance is certified and met.
+        let tw = two_way_distance(
+            &fit.spline,
+            &pts,
+            &fit.parameters,
+            &TwoWayOptions::default(),
+        )
+        .unwrap();
+        assert!(tw.upper_rad <= tol && fit.two_way_rad <= tol);
+        assert!(fit.curve_length_ratio < 1.01, "{}", fit.curve_length_ratio);
     }
 
     #[test]

@@ -283,6 +283,44 @@ impl SphericalCurve for SphericalBetaSpline {
     fn evaluate_many(&self, ts: &[f64]) -> PointSet {
         SphericalBetaSpline::evaluate_many(self, ts)
     }
+    fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
+        // Segment i is a cubic de Casteljau triangle on u = t - i (alpha = u, slope 1).
+        let n = self.segment_count();
+        let (t0, t1) = (t0.clamp(0.0, n as f64), t1.clamp(0.0, n as f64));
+        let (t0, t1) = (t0.min(t1), t0.max(t1));
+        let dim = self.dim();
+        let flat = self.control.as_flat();
+        let mut scratch = Vec::with_capacity(4 * dim);
+        let mut best: f64 = 0.0;
+        let mut seg = (t0.floor() as usize).min(n - 1);
+        loop {
+            let (a, b) = (
+                (t0 - seg as f64).clamp(0.0, 1.0),
+                (t1 - seg as f64).clamp(0.0, 1.0),
+            );
+            let ctrl = &flat[3 * seg * dim..(3 * seg + 4) * dim];
+            let s = crate::sphere::certify::bounds::triangle_speed_bound(
+                dim,
+                ctrl,
+                |_, _| crate::sphere::certify::bounds::NodeAlpha {
+                    at_start: a,
+                    at_end: b,
+                    slope: 1.0,
+                },
+                b - a,
+                &mut scratch,
+            );
+            best = best.max(s);
+            seg += 1;
+            if seg >= n || seg as f64 >= t1 {
+                break;
+            }
+        }
+        best
+    }
+    fn breaks(&self) -> Vec<f64> {
+        (1..self.segment_count()).map(|i| i as f64).collect()
+    }
 }
 
 /// The point `F_j` at interior joint j for auxiliary vertices `aux` (flat), and the weights of
@@ -396,27 +434,10 @@ pub(crate) fn build_control<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sphere::geometry::point::angle_between;
     use crate::sphere::interpolate::beta::{interpolate, InterpolationOptions};
+    use crate::sphere::interpolate::paper_examples::example1;
     use approx::assert_relative_eq;
-
-    fn unit(v: [f64; 3]) -> Vec<f64> {
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        v.iter().map(|x| x / n).collect()
-    }
-
-    fn example1() -> PointSet {
-        PointSet::try_from_rows(&[
-            unit([0.6296, -0.1171, -0.7680]),
-            unit([-0.8142, -0.2856, 0.5055]),
-            unit([-0.4037, 0.6855, 0.6059]),
-            unit([-0.7206, -0.5462, -0.4270]),
-        ])
-        .unwrap()
-    }
-
-    fn angle_between(a: &[f64], b: &[f64]) -> f64 {
-        crate::sphere::geometry::point::angle_between(a, b)
-    }
 
     #[test]
     fn gamma_is_one_for_the_neutral_parameters() {

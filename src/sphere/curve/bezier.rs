@@ -10,7 +10,7 @@
 //! `Fixed<3>` while S^14 uses the same code with a runtime length.
 
 use super::SphericalCurve;
-use crate::sphere::geometry::point::{normalize, sinc, Arc, Dim, Dynamic, PointSet};
+use crate::sphere::geometry::point::{log_into, normalize, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use rayon::prelude::*;
 
@@ -151,6 +151,24 @@ impl SphericalCurve for SphericalBezier {
     fn evaluate_many(&self, ts: &[f64]) -> PointSet {
         SphericalBezier::evaluate_many(self, ts)
     }
+    fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
+        let (a, b) = (clamp_unit(t0.min(t1)), clamp_unit(t0.max(t1)));
+        let mut scratch = Vec::new();
+        crate::sphere::certify::bounds::triangle_speed_bound(
+            self.dim(),
+            self.control.as_flat(),
+            |_, _| crate::sphere::certify::bounds::NodeAlpha {
+                at_start: a,
+                at_end: b,
+                slope: 1.0,
+            },
+            b - a,
+            &mut scratch,
+        )
+    }
+    fn breaks(&self) -> Vec<f64> {
+        Vec::new()
+    }
 }
 
 /// `u` clamped to [0, 1]; NaN becomes 0 so evaluation never reads outside the triangle.
@@ -201,18 +219,6 @@ pub(crate) fn de_casteljau<D: Dim>(
     let apex = &mut tri[..dim];
     normalize(d, apex);
     out[..dim].copy_from_slice(apex);
-}
-
-/// The logarithm map at `base` towards `p` (tangent, length = angle in radians) into `out`.
-/// Never fails: at the antipode (which callers rule out) the direction collapses to zero.
-#[inline(always)]
-pub(crate) fn log_into<D: Dim>(d: D, base: &[f64], p: &[f64], out: &mut [f64]) {
-    let arc = Arc::between(d, base, p);
-    // v = p - cos θ base has length sin θ; scale it to θ.
-    let scale = 1.0 / sinc(arc.theta).max(1e-300);
-    for c in 0..d.get() {
-        out[c] = (p[c] - arc.cos_theta * base[c]) * scale;
-    }
 }
 
 #[cfg(test)]

@@ -21,6 +21,16 @@ pub trait SphericalCurve: Send + Sync {
     /// The curve at every parameter of `ts` (unit vectors).
     fn evaluate_many(&self, ts: &[f64]) -> PointSet;
 
+    /// An upper bound of the speed |dC/dt| (radians per unit of parameter) over `[t0, t1]`
+    /// (inside the domain, `t0 <= t1`), proven from the curve's construction (see
+    /// [`super::bounds`]); infinity when no finite bound is known for so wide an interval
+    /// (callers subdivide). Certified distances and dense sampling rest on it.
+    fn speed_bound(&self, t0: f64, t1: f64) -> f64;
+
+    /// Parameters strictly inside the domain where the curve may fail to be smooth (distinct
+    /// interior knots, segment joints), ascending. Speed bounds are tightest between them.
+    fn breaks(&self) -> Vec<f64>;
+
     /// The curve at one parameter.
     fn evaluate_at(&self, t: f64) -> Vec<f64> {
         self.evaluate_many(&[t]).get(0).to_vec()
@@ -78,6 +88,18 @@ impl SphericalCurve for AnyCurve {
         match self {
             AnyCurve::BSpline(s) => s.evaluate_many(ts),
             AnyCurve::Beta(s) => s.evaluate_many(ts),
+        }
+    }
+    fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
+        match self {
+            AnyCurve::BSpline(s) => SphericalCurve::speed_bound(s, t0, t1),
+            AnyCurve::Beta(s) => s.speed_bound(t0, t1),
+        }
+    }
+    fn breaks(&self) -> Vec<f64> {
+        match self {
+            AnyCurve::BSpline(s) => s.breaks(),
+            AnyCurve::Beta(s) => s.breaks(),
         }
     }
 }

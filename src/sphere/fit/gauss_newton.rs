@@ -18,7 +18,7 @@ use super::gls_pia::{FitOptions, FitReport, IterationError};
 use super::metrics::ErrorMetrics;
 use super::pass::{run_pass, PassMode, PassResult};
 use crate::sphere::curve::bspline::SphericalBSpline;
-use crate::sphere::geometry::point::{dot, normalize, sinc, Dynamic, PointSet};
+use crate::sphere::geometry::point::{dot, exp_in_place, Dynamic, PointSet};
 
 /// Damping attempts per iteration before the solver declares it cannot improve further.
 const MAX_DAMPING_TRIES: usize = 10;
@@ -183,12 +183,7 @@ fn move_along_geodesics(control: &mut PointSet, step: &[f64], mode: PassMode, ba
                 t[x] = v[x] - along * p[x];
             }
         }
-        let len = dot(d, &t, &t).sqrt();
-        let (c, s) = (len.cos(), sinc(len));
-        for x in 0..dim {
-            p[x] = c * p[x] + s * t[x];
-        }
-        normalize(d, p);
+        exp_in_place(d, p, &t);
     }
 }
 

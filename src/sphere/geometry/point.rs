@@ -394,13 +394,33 @@ pub fn log_map(base: &[f64], p: &[f64]) -> Result<Vec<f64>, SphereError> {
             angle_rad: arc.theta,
         });
     }
-    // v = p − cosθ·base has length sinθ; scale to θ.
-    let scale = 1.0 / sinc(arc.theta);
-    Ok(base
-        .iter()
-        .zip(p)
-        .map(|(b, q)| (q - arc.cos_theta * b) * scale)
-        .collect())
+    let mut out = vec![0.0; base.len()];
+    log_into(d, base, p, &mut out);
+    Ok(out)
+}
+
+/// The logarithm map at `base` towards `p` (tangent, length = angle in radians) into `out`.
+/// Never fails: at the antipode (which callers rule out) the direction collapses to zero.
+#[inline(always)]
+pub(crate) fn log_into<D: Dim>(d: D, base: &[f64], p: &[f64], out: &mut [f64]) {
+    let arc = Arc::between(d, base, p);
+    // v = p - cos θ base has length sin θ; scale it to θ.
+    let scale = 1.0 / sinc(arc.theta).max(1e-300);
+    for c in 0..d.get() {
+        out[c] = (p[c] - arc.cos_theta * base[c]) * scale;
+    }
+}
+
+/// `p ← exp_p(t)`: walks from unit vector `p` along `t` (tangent at `p`) for `|t|` radians, in
+/// place. The one exponential map: [`exp_map`] and the solvers' control-point moves use it.
+#[inline]
+pub(crate) fn exp_in_place<D: Dim>(d: D, p: &mut [f64], t: &[f64]) {
+    let len = dot(d, t, t).sqrt();
+    let (c, s) = (len.cos(), sinc(len));
+    for x in 0..d.get() {
+        p[x] = c * p[x] + s * t[x];
+    }
+    normalize(d, p);
 }
 
 /// Exponential map: walks from `base` along tangent vector `v` for `|v|` radians.
@@ -410,10 +430,8 @@ pub fn exp_map(base: &[f64], v: &[f64]) -> Result<Vec<f64>, SphereError> {
     let d = Dynamic(base.len());
     let along = dot(d, base, v);
     let t: Vec<f64> = v.iter().zip(base).map(|(x, b)| x - along * b).collect();
-    let len = dot(d, &t, &t).sqrt();
-    let (c, s) = (len.cos(), sinc(len));
-    let mut out: Vec<f64> = base.iter().zip(&t).map(|(b, x)| c * b + s * x).collect();
-    normalize(d, &mut out);
+    let mut out = base.to_vec();
+    exp_in_place(d, &mut out, &t);
     Ok(out)
 }
 

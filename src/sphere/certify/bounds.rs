@@ -1,0 +1,247 @@
+//! Proven bounds on what a curve does between two of its samples: the speed bound of a SLERP
+//! triangle (de Boor or de Casteljau), the spherical-ellipse bound on how far a curve piece can
+//! stray from its chord, and the largest distance from a great-circle arc to another arc.
+//!
+//! These are the building blocks of the certified two-way distance ([`super::two_way`]) and of
+//! the certified dense sampling ([`super::dense`]); the proofs are in `docs/certified-distance.md`.
+//!
+//! All angles are radians on the unit sphere S^n (any n); nothing here knows about metres.
+
+use crate::sphere::compress::simplify::ArcFrame;
+use crate::sphere::geometry::point::{angle_between, dot, Dynamic};
+
+/// Added to every proven bound: the bounds hold in exact arithmetic, and the curve's own
+/// evaluation, the distances and the trigonometry each round at about 1e-16 rad; 1e-12 rad
+/// (6 µm on the Earth) covers their sum with a wide margin.
+pub const ROUNDING_SLACK_RAD: f64 = 1e-12;
+
+/// Relative slack on speed bounds for the same reason (a bound computed with rounding can land
+/// a few ulps below the true supremum). Kept near rounding: the ellipse bound grows like the
+/// square root of the length excess, so a looser slack would cost real precision.
+const SPEED_SLACK: f64 = 4e-15;
+
+/// Absolute slack taken off a measured chord (radians) in [`ellipse_deviation`], for the
+/// rounding of the two curve points and of their angle.
+const CHORD_SLACK_RAD: f64 = 1e-15;
+
+/// Arcs whose bound on the angle between the two SLERPed points reaches this are not bounded
+/// (the SLERP weights blow up near pi): the caller subdivides instead.
+const THETA_LIMIT_RAD: f64 = std::f64::consts::PI - 1e-3;
+
+/// `sin((1 - alpha) theta) / sin theta`, the first SLERP weight, for theta in [0, pi).
+#[inline]
+fn weight0(alpha: f64, theta: f64) -> f64 {
+    if theta < 1e-8 {
+        1.0 - alpha
+    } else {
+        ((1.0 - alpha) * theta).sin() / theta.sin()
+    }
+}
+
+/// One node of a SLERP triangle: its alpha at both ends of the parameter interval and the
+/// alpha's slope `d alpha / dt` (alpha is affine in t in de Boor and de Casteljau).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct NodeAlpha {
+    pub at_start: f64,
+    pub at_end: f64,
+    pub slope: f64,
+}
+
+/// An upper bound of the speed |dC/dt| (radians per unit of t) over `t in [a, b]` of the apex of
+/// a SLERP triangle on the `p + 1` points `control` (flat, `dim` per point): level r, node j is
+/// `SLERP(node(r-1, j-1), node(r-1, j), alpha(r, j, t))`, as in de Boor's algorithm (B-splines)
+/// and de Casteljau's (Bézier segments).
+///
+/// Per node, with S the speed bounds of the two nodes below and Theta a bound of the angle
+/// between them over the interval (their angle at `a` plus (S_left + S_right)(b - a)):
+/// `S_node <= w0(alpha_min, Theta) S_left + w1(alpha_max, Theta) S_right + Theta |alpha'|`.
+/// (The derivative of SLERP along an end point is a Jacobi field whose length is at most the
+/// SLERP weight of that end; along alpha it is the arc's angle.) Level 0 points do not move.
+///
+/// Returns infinity when an angle bound comes near pi (the caller then subdivides).
+pub(crate) fn triangle_speed_bound(
+    dim: usize,
+    control: &[f64],
+    alpha: impl Fn(usize, usize) -> NodeAlpha,
+    width: f64,
+    scratch: &mut Vec<f64>,
+) -> f64 {
+    let m = control.len() / dim;
+    let p = m - 1;
+    scratch.clear();
+    scratch.extend_from_slice(control);
+    let mut speed = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
+    let d = Dynamic(dim);
+    let mut tmp = vec![0.0; dim];
+    for r in 1..=p {
+        for j in (r..=p).rev() {
+            let (left, right) = scratch.split_at_mut(j * dim);
+            let a = &left[(j - 1) * dim..j * dim];
+            let b = &mut right[..dim];
+            let theta_a = angle_between(a, b);
+            let theta = theta_a + (speed[j - 1] + speed[j]) * width;
+            if theta >= THETA_LIMIT_RAD || !theta.is_finite() {
+                return f64::INFINITY;
+            }
+            let na = alpha(r, j);
+            let lo = na.at_start.min(na.at_end).clamp(0.0, 1.0);
+            let hi = na.at_start.max(na.at_end).clamp(0.0, 1.0);
+            let w0 = weight0(lo, theta);
+            let w1 = weight0(1.0 - hi, theta);
+            speed[j] = w0 * speed[j - 1] + w1 * speed[j] + theta * na.slope.abs();
+            // The node's position at the start of the interval, for the next level's angles.
+            let s = na.at_start.clamp(0.0, 1.0);
+            let arc = crate::sphere::geometry::point::Arc::between(d, a, b);
+            let (v0, v1) = arc.weights_unit(s);
+            for c in 0..dim {
+                tmp[c] = v0 * a[c] + v1 * b[c];
+            }
+            let n = dot(d, &tmp, &tmp).sqrt();
+            for c in 0..dim {
+                b[c] = tmp[c] / n;
+            }
+        }
+    }
+    speed[p] * (1.0 + SPEED_SLACK)
+}
+
+/// How far a curve piece of length at most `length` whose ends are `chord` apart can be from
+/// the great-circle arc joining its ends (both ways: every curve point is within this of the
+/// arc, and every arc point within this of the curve).
+///
+/// Every point x of the piece has d(x, F1) + d(x, F2) <= length (F1, F2 the ends), so it lies
+/// in a spherical ellipse: its distance h to the great circle through the ends satisfies
+/// `cos h >= cos(length/2) / cos(chord/2)`, and its foot on that circle lies at most
+/// `(length - chord) / 2` beyond the arc; the bound is h + that overhang. The other direction
+/// holds because the curve's foot point on the arc moves continuously from one end to the
+/// other. Infinity when `length >= pi`.
+pub fn ellipse_deviation(length: f64, chord: f64) -> f64 {
+    if length.is_nan() || length >= std::f64::consts::PI {
+        return f64::INFINITY;
+    }
+    let length = length * (1.0 + SPEED_SLACK);
+    let chord = (chord - CHORD_SLACK_RAD).max(0.0).min(length);
+    let excess = length - chord;
+    // sin^2(h/2) = sin((l + c)/4) sin((l - c)/4) / cos(c/2), a cancellation-free form.
+    let s2 = ((length + chord) / 4.0).sin() * (excess / 4.0).sin() / (chord / 2.0).cos();
+    let h = 2.0 * s2.max(0.0).sqrt().min(1.0).asin();
+    h + 0.5 * excess + ROUNDING_SLACK_RAD
+}
+
+/// An upper bound of the largest distance from a point of the minor great-circle arc `y0`–`y1`
+/// to the arc of `frame` (the maximum, over the first arc, of the distance to the second).
+///
+/// The first arc is cut where it crosses the great circles perpendicular to the second arc at
+/// its ends; on each piece the distance is either to the second arc's great circle (whose sine
+/// is a sinusoid along the arc, at most its larger end value over cos(chord/2)) or to one end
+/// point (at most its larger end value). So the maximum over the cut points of the distance,
+/// pushed through `asin(sin(.) / cos(chord/2))`, bounds it. Falls back to the Lipschitz bound
+/// when distances reach 1 rad.
+pub(crate) fn arc_to_arc_sup(y0: &[f64], y1: &[f64], frame: &ArcFrame) -> f64 {
+    let dim = y0.len();
+    let d = Dynamic(dim);
+    let c = angle_between(y0, y1);
+    let d0 = frame.distance_dyn(y0);
+    let d1 = frame.distance_dyn(y1);
+    if c < 1e-12 {
+        return d0.max(d1) + c + ROUNDING_SLACK_RAD;
+    }
+    let lipschitz = 0.5 * (d0 + d1 + c) + ROUNDING_SLACK_RAD;
+    if frame.degenerate() {
+        // The second "arc" is a point: distance to a point along an arc is at most its larger
+        // end value while below pi/2.
+        let m = d0.max(d1);
+        return if m < 1.0 {
+            m + ROUNDING_SLACK_RAD
+        } else {
+            lipschitz
+        };
+    }
+    // Unit tangent of the first arc at y0: y(s) = cos s y0 + sin s w.
+    let cos = dot(d, y0, y1);
+    let mut w: Vec<f64> = (0..dim).map(|k| y1[k] - cos * y0[k]).collect();
+    let n = dot(d, &w, &w).sqrt();
+    if n.is_nan() || n <= 0.0 {
+        return lipschitz;
+    }
+    w.iter_mut().for_each(|x| *x /= n);
+    let mut worst = d0.max(d1);
+    let (sin_t, cos_t) = frame.theta.sin_cos();
+    // Normals of the two perpendicular great circles: e2 (at the start), -sin e1 + cos e2.
+    for which in 0..2 {
+        let m: Vec<f64> = (0..dim)
+            .map(|k| {
+                if which == 0 {
+                    frame.e2[k]
+                } else {
+                    -sin_t * frame.e1[k] + cos_t * frame.e2[k]
+                }
+            })
+            .collect();
+        let (g0, g1) = (dot(d, &m, y0), dot(d, &m, &w));
+        // g0 cos s + g1 sin s = 0.
+        let s0 = (-g0).atan2(g1);
+        for k in -2..=2 {
+            let s = s0 + k as f64 * std::f64::consts::PI;
+            if s > 0.0 && s < c {
+                let (ss, cs) = s.sin_cos();
+                let y: Vec<f64> = (0..dim).map(|x| cs * y0[x] + ss * w[x]).collect();
+                worst = worst.max(frame.distance_dyn(&y));
+            }
+        }
+    }
+    if worst >= 1.0 {
+        return lipschitz;
+    }
+    let bound = (worst.sin() / (0.5 * c).cos()).min(1.0).asin() + ROUNDING_SLACK_RAD;
+    bound.min(lipschitz)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sphere::simplify::distance_to_arc;
+
+    fn ll(lon: f64, lat: f64) -> Vec<f64> {
+        let (lo, la) = (lon.to_radians(), lat.to_radians());
+        vec![la.cos() * lo.cos(), la.cos() * lo.sin(), la.sin()]
+    }
+
+    #[test]
+    fn ellipse_bound_holds_for_a_bent_path() {
+        // A path F1 -> X -> F2 of length d(F1,X) + d(X,F2): X must be within the bound.
+        for &(lat, half) in &[(0.01, 0.5), (0.2, 0.3), (1e-5, 0.01), (3.0, 5.0)] {
+            let (f1, f2, x) = (ll(-half, 0.0), ll(half, 0.0), ll(0.0, lat));
+            let length = angle_between(&f1, &x) + angle_between(&x, &f2);
+            let chord = angle_between(&f1, &f2);
+            let dev = distance_to_arc(&x, &f1, &f2);
+            let b = ellipse_deviation(length, chord);
+            assert!(b >= dev, "{b} < {dev}");
+            assert!(b <= dev + 0.5 * (length - chord) + 1e-9, "{b} vs {dev}");
+        }
+        // A straight path has no deviation.
+        assert!(ellipse_deviation(0.3, 0.3) < 3e-8);
+        assert!(ellipse_deviation(1e-4, 1e-4) < 1e-9);
+    }
+
+    #[test]
+    fn arc_to_arc_sup_matches_dense_sampling() {
+        let cases = [
+            (ll(0.0, 0.1), ll(1.0, 0.2), ll(-0.5, 0.0), ll(1.5, 0.0)),
+            (ll(-1.0, 0.05), ll(2.0, 0.3), ll(0.0, 0.0), ll(1.0, 0.0)),
+            (ll(0.2, -0.3), ll(0.4, 0.4), ll(0.0, 0.0), ll(1.0, 0.1)),
+            (ll(0.0, 1.0), ll(0.0, 1.0), ll(0.0, 0.0), ll(1.0, 0.0)),
+        ];
+        for (y0, y1, a, b) in cases {
+            let frame = ArcFrame::new(Dynamic(3), &a, &b);
+            let bound = arc_to_arc_sup(&y0, &y1, &frame);
+            let mut brute: f64 = 0.0;
+            for i in 0..=20_000 {
+                let y = crate::sphere::point::slerp(&y0, &y1, i as f64 / 20_000.0).unwrap();
+                brute = brute.max(distance_to_arc(&y, &a, &b));
+            }
+            assert!(bound >= brute, "{bound} < {brute}");
+            assert!(bound <= brute * 1.001 + 1e-10, "{bound} vs {brute}");
+        }
+    }
+}

@@ -1,0 +1,806 @@
+//! The certified two-way distance between a curve on S^n and a polyline of great-circle arcs,
+//! with the polyline's points matched to the curve in order.
+//!
+//! # What is measured
+//! Points `q_0 .. q_{n-1}` (the polyline's vertices, joined by minor great-circle arcs
+//! `s_j = q_j q_{j+1}`) are matched to non-decreasing curve parameters `t_0 <= .. <= t_{n-1}`
+//! (the fitter's foot points, or given times). The **two-way distance** is
+//!
+//! ```text
+//! D = max( max_j d(q_j, C(t_j)),  max_j H(s_j, C([t_j, t_{j+1}])) )
+//! ```
+//!
+//! where H is the Hausdorff distance (both ways) between the arc s_j and the curve piece
+//! between the matched parameters (the first piece starts at the curve's start, the last ends
+//! at its end). So every point of the polyline, not only its vertices, is within D of the curve
+//! and every point of the curve within D of the polyline, and the matching runs in order: a
+//! stretch of line cannot be "covered" by a distant loop of the curve. D is never smaller than
+//! the plain Hausdorff distance between polyline and curve, nor than the vertex error.
+//!
+//! # How it is certified
+//! [`two_way_distance`] returns an upper bound (`upper_rad`) proven by adaptive subdivision,
+//! never a fixed sample count, and a lower bound (`lower_rad`) attained by samples; it stops
+//! when the two are within `precision_rad`. Curve to arc: on a parameter interval the curve's
+//! speed is bounded ([`SphericalCurve::speed_bound`]), so the distance to the arc is Lipschitz
+//! and also the piece stays in a spherical ellipse around its chord
+//! ([`super::bounds::ellipse_deviation`]); intervals whose bound is too high are halved. Arc
+//! to curve: the distance from a point of the arc to the nearest curve sample has a closed form
+//! along the arc, so the largest distance to the sample set is bounded exactly; where it is too
+//! high, curve samples are added nearby. The proofs are in `docs/certified-distance.md`.
+//!
+//! Cost: about (curve length / D) · log(D / precision) curve evaluations, in parallel over the
+//! polyline's segments.
+
+use super::bounds::{arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD};
+use crate::sphere::compress::simplify::ArcFrame;
+use crate::sphere::curve::SphericalCurve;
+use crate::sphere::geometry::point::{angle_between, dot, Dynamic, PointSet};
+use crate::sphere::SphereError;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// How precisely, and at what cost at most, [`two_way_distance`] works.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TwoWayOptions {
+    /// Stop refining once the upper bound is within this of the lower bound (radians).
+    pub precision_rad: f64,
+    /// Most curve evaluations in all. When they run out the bound returned is still an upper
+    /// bound, only a looser one (`budget_exhausted` says so).
+    pub max_evaluations: usize,
+    /// Decide against this level instead of measuring precisely: intervals whose bound is at
+    /// most the level are accepted as they are, and the work stops as soon as a sample lies
+    /// farther than the level (`exceeded`). A fitter asking "is D <= T?" needs no more.
+    pub decide_rad: Option<f64>,
+}
+
+impl Default for TwoWayOptions {
+    fn default() -> Self {
+        TwoWayOptions {
+            precision_rad: 1e-8,
+            max_evaluations: 20_000_000,
+            decide_rad: None,
+        }
+    }
+}
+
+impl TwoWayOptions {
+    /// Sets the precision (radians).
+    pub fn with_precision_rad(mut self, p: f64) -> Self {
+        self.precision_rad = p;
+        self
+    }
+    /// Sets the evaluation budget.
+    pub fn with_max_evaluations(mut self, n: usize) -> Self {
+        self.max_evaluations = n;
+        self
+    }
+    /// Decides "D <= level?" instead of measuring D (see [`TwoWayOptions::decide_rad`]).
+    pub fn deciding(mut self, level_rad: f64) -> Self {
+        self.decide_rad = Some(level_rad);
+        self
+    }
+}
+
+/// The result of [`two_way_distance`]; all distances in radians.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TwoWayDistance {
+    /// Proven upper bound of the two-way distance D.
+    pub upper_rad: f64,
+    /// A lower bound of D, attained at a sample.
+    pub lower_rad: f64,
+    /// The largest vertex error d(q_j, C(t_j)).
+    pub vertex_max_rad: f64,
+    /// Upper bound of the curve-to-polyline part (every curve point is this close to its arc).
+    pub curve_to_line_rad: f64,
+    /// Upper bound of the polyline-to-curve part.
+    pub line_to_curve_rad: f64,
+    /// Per segment j (q_j to q_{j+1}): an upper bound of H(s_j, C([t_j, t_{j+1}])) and of the
+    /// two vertex errors at its ends.
+    pub segment_upper_rad: Vec<f64>,
+    /// Length of the curve, as the sum of chords between all samples taken (a lower bound,
+    /// accurate to the sampling).
+    pub curve_length_rad: f64,
+    /// Curve evaluations made.
+    pub evaluations: usize,
+    /// The evaluation budget ran out (the bound holds, but may be loose).
+    pub budget_exhausted: bool,
+    /// Deciding ([`TwoWayOptions::decide_rad`]): a sample lies farther than the level, so D
+    /// exceeds it; the work stopped there and `upper_rad` is only the trivial bound (pi).
+    pub exceeded: bool,
+}
+
+/// The length of a polyline (sum of its great-circle arcs), radians.
+pub fn polyline_length(points: &PointSet) -> f64 {
+    (1..points.len())
+        .map(|i| angle_between(points.get(i - 1), points.get(i)))
+        .sum()
+}
+
+/// Certified two-way distance between `curve` and the polyline through `points`, matched at
+/// `params` (one per point, non-decreasing, inside the curve's domain; see the module docs).
+///
+/// # Errors
+/// [`SphereError::TooFewPoints`] for fewer than 2 points, [`SphereError::DimensionMismatch`]
+/// when the points' dimension is not the curve's, [`SphereError::InvalidParameters`] for a
+/// wrong count, non-finite or decreasing parameters.
+///
+/// # Example
+/// ```
+/// use spherefit::sphere::two_way::{two_way_distance, TwoWayOptions};
+/// use spherefit::sphere::{PointSet, SphericalBSpline};
+/// // A great-circle arc as a degree-1 spline, and points 1e-4 rad north of it.
+/// let ctrl = PointSet::try_from_rows(&[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]).unwrap();
+/// let arc = SphericalBSpline::try_new(1, vec![0.0, 0.0, 1.0, 1.0], ctrl).unwrap();
+/// let h = 1e-4_f64;
+/// let rows: Vec<[f64; 3]> = (0..5).map(|i| {
+///     let a = i as f64 / 4.0 * std::f64::consts::FRAC_PI_2;
+///     [h.cos() * a.cos(), h.cos() * a.sin(), h.sin()]
+/// }).collect();
+/// let pts = PointSet::try_from_rows(&rows).unwrap();
+/// let t = [0.0, 0.25, 0.5, 0.75, 1.0];
+/// let d = two_way_distance(&arc, &pts, &t, &TwoWayOptions::default()).unwrap();
+/// assert!(d.upper_rad >= 1e-4 && d.upper_rad < 1e-4 + 2e-8);
+/// ```
+pub fn two_way_distance(
+    curve: &dyn SphericalCurve,
+    points: &PointSet,
+    params: &[f64],
+    options: &TwoWayOptions,
+) -> Result<TwoWayDistance, SphereError> {
+    let n = points.len();
+    if n < 2 {
+        return Err(SphereError::TooFewPoints { got: n, need: 2 });
+    }
+    let dim = curve.dim();
+    if points.dim() != dim {
+        return Err(SphereError::DimensionMismatch {
+            index: 0,
+            expected: dim,
+            got: points.dim(),
+        });
+    }
+    if params.len() != n {
+        return Err(SphereError::InvalidParameters {
+            reason: format!("got {} parameters for {n} points", params.len()),
+        });
+    }
+    if let Some(i) = params.iter().position(|t| !t.is_finite()) {
+        return Err(SphereError::InvalidParameters {
+            reason: format!("parameter {i} is not a finite number"),
+        });
+    }
+    if let Some(i) = (1..n).find(|&i| params[i] < params[i - 1]) {
+        return Err(SphereError::InvalidParameters {
+            reason: format!("parameter {i} is smaller than parameter {}", i - 1),
+        });
+    }
+    let (lo, hi) = curve.domain();
+    let ts: Vec<f64> = params.iter().map(|t| t.clamp(lo, hi)).collect();
+    let vertex_pts = curve.evaluate_many(&ts);
+    let errs: Vec<f64> = (0..n)
+        .map(|j| angle_between(points.get(j), vertex_pts.get(j)))
+        .collect();
+    let vertex_max = errs.iter().copied().fold(0.0, f64::max);
+    let breaks = curve.breaks();
+    let budget = AtomicUsize::new(options.max_evaluations.saturating_sub(n));
+    let eps = options.precision_rad.max(ROUNDING_SLACK_RAD);
+    let decide = options.decide_rad.unwrap_or(f64::INFINITY);
+    let stop = AtomicBool::new(vertex_max > decide);
+    let domain_width = (hi - lo).abs().max(hi.abs()).max(lo.abs()).max(1.0);
+    let pieces: Vec<Piece> = (0..n - 1)
+        .into_par_iter()
+        .map(|j| {
+            let ta = if j == 0 { lo } else { ts[j] };
+            let tb = if j + 2 == n { hi } else { ts[j + 1] };
+            let (ca, cb) = (
+                curve.evaluate_at(ta),
+                if tb == ts[j + 1] {
+                    vertex_pts.get(j + 1).to_vec()
+                } else {
+                    curve.evaluate_at(tb)
+                },
+            );
+            let mut extra = Vec::new();
+            if ta != ts[j] {
+                extra.push((ts[j], vertex_pts.get(j).to_vec()));
+            }
+            piece_bound(
+                curve,
+                PieceInput {
+                    qa: points.get(j),
+                    qb: points.get(j + 1),
+                    ta,
+                    tb,
+                    ca,
+                    cb,
+                    extra,
+                    breaks: &breaks,
+                    level0: vertex_max,
+                    eps,
+                    budget: &budget,
+                    decide,
+                    stop: &stop,
+                    domain_width,
+                },
+            )
+        })
+        .collect();
+    let mut out = TwoWayDistance {
+        upper_rad: vertex_max,
+        lower_rad: vertex_max,
+        vertex_max_rad: vertex_max,
+        curve_to_line_rad: 0.0,
+        line_to_curve_rad: 0.0,
+        segment_upper_rad: Vec::with_capacity(n - 1),
+        curve_length_rad: 0.0,
+        evaluations: n,
+        budget_exhausted: false,
+        exceeded: false,
+    };
+    for (j, p) in pieces.iter().enumerate() {
+        out.curve_to_line_rad = out.curve_to_line_rad.max(p.upper1);
+        out.line_to_curve_rad = out.line_to_curve_rad.max(p.upper2);
+        out.lower_rad = out.lower_rad.max(p.lower);
+        let s = p.upper1.max(p.upper2).max(errs[j]).max(errs[j + 1]);
+        out.segment_upper_rad.push(s);
+        out.upper_rad = out.upper_rad.max(s);
+        out.curve_length_rad += p.length;
+        out.evaluations += p.evaluations;
+        out.budget_exhausted |= p.exhausted;
+    }
+    if stop.load(Ordering::Relaxed) {
+        out.exceeded = true;
+        out.upper_rad = std::f64::consts::PI;
+    }
+    Ok(out)
+}
+
+struct PieceInput<'a> {
+    qa: &'a [f64],
+    qb: &'a [f64],
+    ta: f64,
+    tb: f64,
+    ca: Vec<f64>,
+    cb: Vec<f64>,
+    /// Further known curve samples inside the piece.
+    extra: Vec<(f64, Vec<f64>)>,
+    breaks: &'a [f64],
+    level0: f64,
+    eps: f64,
+    budget: &'a AtomicUsize,
+    /// The decision level (infinite when measuring).
+    decide: f64,
+    /// Set by any piece that finds a sample beyond `decide`: every piece then stops.
+    stop: &'a AtomicBool,
+    /// Scale of the parameters, for the width below which an unbounded interval is given up.
+    domain_width: f64,
+}
+
+struct Piece {
+    upper1: f64,
+    upper2: f64,
+    lower: f64,
+    length: f64,
+    evaluations: usize,
+    exhausted: bool,
+}
+
+/// Halving stops at intervals this narrow (relative to the parameter's magnitude): below it
+/// the parameters themselves round.
+const MIN_RELATIVE_WIDTH: f64 = 1e-13;
+
+/// Rounds of sample insertion for the arc-to-curve direction.
+const ARC_TO_CURVE_ROUNDS: usize = 24;
+
+/// An interval whose speed bound is still unbounded (a de Boor node's triangle near a half
+/// turn) once it is this narrow relative to the domain is given the trivial bound pi instead
+/// of being halved on: halving cannot make the bound finite when the control points themselves
+/// are near antipodal, and would only spend the whole budget.
+const UNBOUNDED_GIVE_UP_WIDTH: f64 = 1e-6;
+
+/// Samples of one piece: parameters, points (flat) and distances to the piece's arc.
+struct Samples {
+    dim: usize,
+    ts: Vec<f64>,
+    pts: Vec<f64>,
+    fs: Vec<f64>,
+}
+
+impl Samples {
+    fn point(&self, i: usize) -> &[f64] {
+        &self.pts[i * self.dim..(i + 1) * self.dim]
+    }
+    fn push(&mut self, t: f64, p: &[f64], f: f64) -> usize {
+        self.ts.push(t);
+        self.pts.extend_from_slice(p);
+        self.fs.push(f);
+        self.ts.len() - 1
+    }
+}
+
+/// Takes `want` evaluations from the budget; false when it is spent.
+fn take(budget: &AtomicUsize, want: usize) -> bool {
+    budget
+        .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
+            b.checked_sub(want)
+        })
+        .is_ok()
+}
+
+fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
+    let dim = curve.dim();
+    let d = Dynamic(dim);
+    let frame = ArcFrame::new(d, inp.qa, inp.qb);
+    let mut s = Samples {
+        dim,
+        ts: Vec::new(),
+        pts: Vec::new(),
+        fs: Vec::new(),
+    };
+    let mut lower: f64 = 0.0;
+    let mut evaluations = 0;
+    let mut exhausted = false;
+    let ia = s.push(inp.ta, &inp.ca, frame.distance_dyn(&inp.ca));
+    for (t, p) in &inp.extra {
+        s.push(*t, p, frame.distance_dyn(p));
+    }
+    // Interior break points start the subdivision.
+    let interior: Vec<f64> = inp
+        .breaks
+        .iter()
+        .copied()
+        .filter(|&u| u > inp.ta && u < inp.tb)
+        .collect();
+    let mut chain = vec![ia];
+    if !interior.is_empty() {
+        evaluations += interior.len();
+        exhausted |= !take(inp.budget, interior.len());
+        let pts = curve.evaluate_many(&interior);
+        for (k, &t) in interior.iter().enumerate() {
+            let p = pts.get(k);
+            chain.push(s.push(t, p, frame.distance_dyn(p)));
+        }
+    }
+    let ib = s.push(inp.tb, &inp.cb, frame.distance_dyn(&inp.cb));
+    chain.push(ib);
+    for &f in &s.fs {
+        lower = lower.max(f);
+    }
+    let mut upper1: f64 = s.fs.iter().copied().fold(0.0, f64::max);
+    // Curve to arc: breadth-first halving.
+    let mut open: Vec<(usize, usize)> = chain.windows(2).map(|w| (w[0], w[1])).collect();
+    if inp.tb <= inp.ta {
+        open.clear();
+    }
+    while !open.is_empty() {
+        if lower > inp.decide {
+            inp.stop.store(true, Ordering::Relaxed);
+        }
+        if inp.stop.load(Ordering::Relaxed) {
+            break;
+        }
+        let level = level_for(&inp, lower);
+        let mut split: Vec<(usize, usize)> = Vec::new();
+        for &(iu, iv) in &open {
+            let (tu, tv) = (s.ts[iu], s.ts[iv]);
+            let (pu, pv) = (s.point(iu), s.point(iv));
+            let speed = curve.speed_bound(tu, tv);
+            let length = speed * (tv - tu);
+            let chord = angle_between(pu, pv);
+            let lip = 0.5 * (s.fs[iu] + s.fs[iv] + length) + ROUNDING_SLACK_RAD;
+            let bound = if lip <= level {
+                lip
+            } else {
+                lip.min(ellipse_deviation(length, chord) + arc_to_arc_sup(pu, pv, &frame))
+            };
+            let bound = bound.min(PI);
+            let narrow = tv - tu <= MIN_RELATIVE_WIDTH * tu.abs().max(tv.abs()).max(1.0)
+                || (bound >= PI && tv - tu <= UNBOUNDED_GIVE_UP_WIDTH * inp.domain_width);
+            if bound <= level || narrow || exhausted {
+                upper1 = upper1.max(bound);
+            } else {
+                split.push((iu, iv));
+            }
+        }
+        if split.is_empty() {
+            break;
+        }
+        if !take(inp.budget, split.len()) {
+            exhausted = true;
+            continue;
+        }
+        evaluations += split.len();
+        let mids: Vec<f64> = split
+            .iter()
+            .map(|&(iu, iv)| 0.5 * (s.ts[iu] + s.ts[iv]))
+            .collect();
+        let pts = curve.evaluate_many(&mids);
+        open.clear();
+        for (k, &(iu, iv)) in split.iter().enumerate() {
+            let p = pts.get(k);
+            let f = frame.distance_dyn(p);
+            lower = lower.max(f);
+            let im = s.push(mids[k], p, f);
+            open.push((iu, im));
+            open.push((im, iv));
+        }
+    }
+    // Arc to curve. The foot of C(t) on the arc moves continuously with t, so it sweeps the
+    // stretch between the feet of the piece's two ends: every arc point there is the foot of a
+    // curve point, hence within `upper1` of the curve. The rest of the arc (towards its ends) is
+    // bounded by its distance to the sample set, refined where high.
+    let foot = |i: usize| -> f64 {
+        let c = s.point(i);
+        let (a, b) = (dot(d, c, &frame.e1), dot(d, c, &frame.e2));
+        b.atan2(a).clamp(0.0, frame.theta)
+    };
+    let (fa, fb) = (foot(ia), foot(ib));
+    // (Continuity of the foot needs the curve within pi/2 of the arc, which `upper1` proves.)
+    let covered = if upper1 < 1.0 {
+        (fa.min(fb), fa.max(fb))
+    } else {
+        (0.0, 0.0)
+    };
+    let mut upper2;
+    let mut rounds = 0;
+    loop {
+        if lower > inp.decide {
+            inp.stop.store(true, Ordering::Relaxed);
+        }
+        if inp.stop.load(Ordering::Relaxed) {
+            upper2 = PI;
+            break;
+        }
+        let level = level_for(&inp, lower);
+        let (sup, bad) = arc_to_samples(&frame, &s, level, covered);
+        upper2 = sup;
+        if covered.1 > covered.0 {
+            upper2 = upper2.max(upper1);
+        }
+        rounds += 1;
+        if bad.is_empty() || rounds > ARC_TO_CURVE_ROUNDS || exhausted {
+            break;
+        }
+        let mut order: Vec<usize> = (0..s.ts.len()).collect();
+        order.sort_by(|&a, &b| s.ts[a].total_cmp(&s.ts[b]));
+        let mut pos = vec![0; s.ts.len()];
+        for (k, &i) in order.iter().enumerate() {
+            pos[i] = k;
+        }
+        let mut lefts: Vec<usize> = Vec::new();
+        for &i in &bad {
+            let k = pos[i];
+            if k > 0 {
+                lefts.push(k - 1);
+            }
+            if k + 1 < order.len() {
+                lefts.push(k);
+            }
+        }
+        lefts.sort_unstable();
+        lefts.dedup();
+        let mids: Vec<f64> = lefts
+            .iter()
+            .map(|&k| (s.ts[order[k]], s.ts[order[k + 1]]))
+            .filter(|&(a, b)| b - a > MIN_RELATIVE_WIDTH * a.abs().max(b.abs()).max(1.0))
+            .map(|(a, b)| 0.5 * (a + b))
+            .collect();
+        if mids.is_empty() {
+            break;
+        }
+        if !take(inp.budget, mids.len()) {
+            exhausted = true;
+            break;
+        }
+        evaluations += mids.len();
+        let pts = curve.evaluate_many(&mids);
+        for (k, &t) in mids.iter().enumerate() {
+            let p = pts.get(k);
+            let f = frame.distance_dyn(p);
+            lower = lower.max(f);
+            s.push(t, p, f);
+        }
+    }
+    // Length: chords between samples in parameter order.
+    let mut order: Vec<usize> = (0..s.ts.len()).collect();
+    order.sort_by(|&a, &b| s.ts[a].total_cmp(&s.ts[b]));
+    let length = order
+        .windows(2)
+        .map(|w| angle_between(s.point(w[0]), s.point(w[1])))
+        .sum();
+    Piece {
+        upper1,
+        upper2,
+        lower,
+        length,
+        evaluations,
+        exhausted,
+    }
+}
+
+/// The level below which an interval's bound is accepted: the best lower bound plus the
+/// precision when measuring, or the decision level when that is higher.
+fn level_for(inp: &PieceInput<'_>, lower: f64) -> f64 {
+    let measured = inp.level0.max(lower) + inp.eps;
+    if inp.decide.is_finite() {
+        measured.max(inp.decide)
+    } else {
+        measured
+    }
+}
+
+/// The parts of `[l, r]` outside the open interval `skip` (all of it when `skip` is empty).
+fn allowed_parts(l: f64, r: f64, skip: (f64, f64)) -> Vec<(f64, f64)> {
+    if l > r {
+        return Vec::new();
+    }
+    if skip.1 <= skip.0 {
+        return vec![(l, r)];
+    }
+    let mut out = Vec::with_capacity(2);
+    if l <= skip.0 {
+        out.push((l, r.min(skip.0)));
+    }
+    if r >= skip.1 {
+        out.push((l.max(skip.1), r));
+    }
+    out
+}
+
+/// A sample seen from the arc's frame: along-track angle `phi`, and its distance to the arc's
+/// plane as `perp` (sine) and `r` (the in-plane length, cosine).
+#[derive(Clone, Copy)]
+struct Seen {
+    phi: f64,
+    r: f64,
+    perp: f64,
+    index: usize,
+}
+
+/// Exact distance from the arc point at along-track angle `s` to the sample `k`:
+/// chord^2 = (1 - r)^2 + 4 r sin^2((s - phi)/2) + perp^2, with 1 - r = perp^2 / (1 + r).
+#[inline]
+fn dist_from_arc_point(k: &Seen, s: f64) -> f64 {
+    let one_minus_r = k.perp * k.perp / (1.0 + k.r);
+    let h = ((s - k.phi) / 2.0).sin();
+    let chord2 = one_minus_r * one_minus_r + 4.0 * k.r * h * h + k.perp * k.perp;
+    2.0 * (0.5 * chord2.sqrt()).min(1.0).asin()
+}
+
+/// The largest distance from a point of the arc to the nearest sample (an upper bound of the
+/// arc-to-curve distance, since the samples are curve points), and the samples next to the
+/// places where it exceeds `level`.
+///
+/// Samples sorted by along-track angle cover the arc: between two neighbours k, k' the
+/// distance to k grows and the distance to k' shrinks, so the larger of the two at any point
+/// s between them bounds the smaller of the two everywhere between; s is chosen where they
+/// cross. Beyond the first (last) sample the distance to it is largest at the arc's end.
+///
+/// Only the arc outside `skip` (an interval of along-track angles bounded otherwise) counts.
+fn arc_to_samples(
+    frame: &ArcFrame,
+    s: &Samples,
+    level: f64,
+    skip: (f64, f64),
+) -> (f64, Vec<usize>) {
+    let dim = s.dim;
+    let d = Dynamic(dim);
+    if frame.degenerate() {
+        let (mut best, mut at) = (f64::INFINITY, 0);
+        for i in 0..s.ts.len() {
+            let e = angle_between(&frame.e1, s.point(i));
+            if e < best {
+                best = e;
+                at = i;
+            }
+        }
+        let bad = if best > level { vec![at] } else { Vec::new() };
+        return (best + ROUNDING_SLACK_RAD, bad);
+    }
+    let mut seen: Vec<Seen> = (0..s.ts.len())
+        .map(|i| {
+            let c = s.point(i);
+            let a = dot(d, c, &frame.e1);
+            let b = dot(d, c, &frame.e2);
+            let mut perp2 = 0.0;
+            for k in 0..dim {
+                let r = c[k] - a * frame.e1[k] - b * frame.e2[k];
+                perp2 += r * r;
+            }
+            Seen {
+                phi: b.atan2(a),
+                r: a.hypot(b),
+                perp: perp2.sqrt(),
+                index: i,
+            }
+        })
+        .collect();
+    seen.sort_by(|a, b| a.phi.total_cmp(&b.phi));
+    let theta = frame.theta;
+    let mut sup: f64 = 0.0;
+    let mut bad = Vec::new();
+    let note = |v: f64, ks: &[usize], sup: &mut f64, bad: &mut Vec<usize>| {
+        *sup = sup.max(v);
+        if v > level {
+            bad.extend_from_slice(ks);
+        }
+    };
+    // Before the first sample the distance to it shrinks towards it: largest at the left end
+    // of each allowed part; after the last, at the right end.
+    let first = seen[0];
+    for (l, _) in allowed_parts(0.0, first.phi.min(theta), skip) {
+        note(
+            dist_from_arc_point(&first, l),
+            &[first.index],
+            &mut sup,
+            &mut bad,
+        );
+    }
+    for w in seen.windows(2) {
+        let (k, k2) = (w[0], w[1]);
+        let (l, r) = (k.phi.max(0.0), k2.phi.min(theta));
+        if l >= r {
+            continue;
+        }
+        let g = k2.phi - k.phi;
+        let u = (k.r - k2.r * g.cos()).atan2(k2.r * g.sin());
+        // The parts of [l, r] outside `skip`; on each, any point bounds the smaller distance.
+        for (l, r) in allowed_parts(l, r, skip) {
+            let at = (k.phi + u).clamp(l, r);
+            let v = dist_from_arc_point(&k, at).max(dist_from_arc_point(&k2, at));
+            note(v, &[k.index, k2.index], &mut sup, &mut bad);
+        }
+    }
+    let last = seen[seen.len() - 1];
+    for (_, r) in allowed_parts(last.phi.max(0.0), theta, skip) {
+        note(
+            dist_from_arc_point(&last, r),
+            &[last.index],
+            &mut sup,
+            &mut bad,
+        );
+    }
+    bad.sort_unstable();
+    bad.dedup();
+    (sup + ROUNDING_SLACK_RAD, bad)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sphere::simplify::distance_to_arc;
+    use crate::sphere::SphericalBSpline;
+    use proptest::prelude::*;
+
+    fn ll(lon: f64, lat: f64) -> [f64; 3] {
+        [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
+    }
+
+    /// A clamped spline of degree p on uniform knots through wavy control points.
+    fn spline(p: usize, n: usize, scale: f64, wave: f64, seed: u64) -> SphericalBSpline {
+        let rows: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let a = scale * i as f64 / (n - 1) as f64;
+                let s = ((i as u64 * 7919 + seed * 104_729) % 1000) as f64 / 1000.0 - 0.5;
+                ll(a, wave * scale * s)
+            })
+            .collect();
+        let m = n - p;
+        let mut k = vec![0.0; p + 1];
+        k.extend((1..m).map(|i| i as f64 / m as f64));
+        k.extend(std::iter::repeat_n(1.0, p + 1));
+        SphericalBSpline::try_new(p, k, PointSet::try_from_rows(&rows).unwrap()).unwrap()
+    }
+
+    /// The two-way distance by brute force: dense samples of every piece and every arc.
+    fn brute(c: &SphericalBSpline, q: &PointSet, t: &[f64], per: usize) -> f64 {
+        let n = q.len();
+        let mut worst: f64 = 0.0;
+        for j in 0..n {
+            worst = worst.max(angle_between(q.get(j), &c.evaluate(t[j])));
+        }
+        for j in 0..n - 1 {
+            let (ta, tb) = (
+                if j == 0 { 0.0 } else { t[j] },
+                if j + 2 == n { 1.0 } else { t[j + 1] },
+            );
+            let ts: Vec<f64> = (0..=per)
+                .map(|i| ta + (tb - ta) * i as f64 / per as f64)
+                .collect();
+            let cs = c.evaluate_many(&ts);
+            let (a, b) = (q.get(j), q.get(j + 1));
+            for p in cs.iter() {
+                worst = worst.max(distance_to_arc(p, a, b));
+            }
+            for i in 0..=per {
+                let x = crate::sphere::point::slerp(a, b, i as f64 / per as f64).unwrap();
+                let m = cs
+                    .iter()
+                    .map(|p| angle_between(&x, p))
+                    .fold(f64::INFINITY, f64::min);
+                worst = worst.max(m);
+            }
+        }
+        worst
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+        #[test]
+        fn certified_bound_is_above_brute_force_and_close(
+            p in 1usize..=3,
+            n_ctrl in 4usize..9,
+            scale in 0.001f64..0.5,
+            wave in 0.0f64..0.3,
+            seed in 0u64..1000,
+            n_pts in 3usize..9,
+            noise in 0.0f64..0.05,
+        ) {
+            let c = spline(p, n_ctrl, scale, wave, seed);
+            // Points near the curve at sorted parameters, pushed off by `noise`.
+            let t: Vec<f64> = (0..n_pts).map(|i| i as f64 / (n_pts - 1) as f64).collect();
+            let rows: Vec<Vec<f64>> = t.iter().enumerate().map(|(i, &u)| {
+                let on = c.evaluate(u);
+                let off = noise * scale * (((i as u64 + seed) % 7) as f64 / 7.0 - 0.5);
+                let mut v = on.clone();
+                v[2] += off;
+                let nrm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                v.iter().map(|x| x / nrm).collect()
+            }).collect();
+            let q = PointSet::try_from_rows(&rows).unwrap();
+            let prec = 1e-3 * scale;
+            let d = two_way_distance(&c, &q, &t, &TwoWayOptions::default().with_precision_rad(prec)).unwrap();
+            let b = brute(&c, &q, &t, 800);
+            prop_assert!(d.upper_rad >= b * (1.0 - 1e-9) - 1e-12, "certified {} < brute {}", d.upper_rad, b);
+            prop_assert!(d.upper_rad <= b + 2.0 * prec + 1e-9 * scale, "certified {} far above brute {}", d.upper_rad, b);
+            prop_assert!(d.lower_rad <= d.upper_rad);
+            prop_assert!(!d.budget_exhausted);
+        }
+    }
+
+    #[test]
+    fn a_polyline_fitted_by_itself_is_at_distance_zero() {
+        let rows: Vec<[f64; 3]> = (0..6)
+            .map(|i| ll(0.01 * i as f64, 0.003 * ((i * i) % 5) as f64))
+            .collect();
+        let q = PointSet::try_from_rows(&rows).unwrap();
+        let k = vec![0.0, 0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.0];
+        let c = SphericalBSpline::try_new(1, k, q.clone()).unwrap();
+        let t = [0.0, 0.2, 0.4, 0.6, 0.8, 1.0];
+        let d = two_way_distance(
+            &c,
+            &q,
+            &t,
+            &TwoWayOptions::default().with_precision_rad(1e-9),
+        )
+        .unwrap();
+        assert!(d.upper_rad < 1e-8, "{}", d.upper_rad);
+        assert!(d.evaluations < 10_000, "{}", d.evaluations);
+        let len = polyline_length(&q);
+        assert!((d.curve_length_rad - len).abs() < 1e-12 * len.max(1.0) + 1e-14);
+    }
+
+    #[test]
+    fn a_loop_of_the_curve_is_not_covered_by_another_stretch() {
+        // The curve runs along the line but the matching puts every point at the start, so the
+        // first piece is the whole curve while its segment is short: that is far.
+        let c = spline(1, 2, 0.1, 0.0, 0);
+        let rows = [ll(0.0, 0.0), ll(0.001, 0.0), ll(0.1, 0.0)];
+        let q = PointSet::try_from_rows(&rows).unwrap();
+        let good = two_way_distance(&c, &q, &[0.0, 0.01, 1.0], &TwoWayOptions::default()).unwrap();
+        assert!(good.upper_rad < 1e-8, "{}", good.upper_rad);
+        let bad = two_way_distance(&c, &q, &[0.0, 0.0, 1.0], &TwoWayOptions::default()).unwrap();
+        assert!(bad.lower_rad > 9e-4, "{}", bad.lower_rad);
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        let c = spline(2, 5, 0.1, 0.1, 1);
+        let q = PointSet::try_from_rows(&[ll(0.0, 0.0), ll(0.1, 0.0)]).unwrap();
+        let o = TwoWayOptions::default();
+        assert!(two_way_distance(&c, &q, &[0.5, 0.2], &o).is_err());
+        assert!(two_way_distance(&c, &q, &[0.0], &o).is_err());
+        assert!(two_way_distance(&c, &q, &[0.0, f64::NAN], &o).is_err());
+    }
+}
