@@ -12,6 +12,8 @@ use super::{EarthError, InterpolateSettings, Limits, OutputOptions, Problem};
 use crate::document::BetaDocument;
 use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
 use crate::sphere::fit::default_control_points;
+use crate::sphere::geometry::densify::densify;
+use crate::sphere::knots::KnotPlacement;
 use crate::sphere::metrics::pointwise_errors;
 use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
 use crate::sphere::tolerance::{
@@ -37,6 +39,13 @@ pub const INTERPOLATION_DEVIATION_FRACTION: f64 = 0.005;
 /// Canada–USA border (median steps 3.8 and 6.2 km), half leaves at most 1 km everywhere; dense
 /// smooth tracks keep a quarter.
 pub const AUTO_COUNT_STEP_SHARE: f64 = 0.25;
+
+/// The faithful default fit inserts points into segments longer than this many median steps
+/// of the line (so no step is longer) ...
+pub const DENSIFY_STEP_SHARE: f64 = 3.0;
+
+/// ... up to this many times the line's distinct positions in all.
+pub const DENSIFY_MAX_FACTOR: usize = 4;
 
 /// Output altitudes are rounded to millimetres.
 const ALTITUDE_DECIMALS: u32 = 3;
@@ -342,15 +351,28 @@ pub fn fit_line(
     };
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
+    // The faithful default fits the line, not only its vertices: long segments get points
+    // along them (see `sphere::geometry::densify`), and the vertices' parameters are read off
+    // the fit. The paper's placements fit the vertices as given.
+    let (fit_points, at) = if options.knots == KnotPlacement::Adaptive {
+        densify(
+            &points,
+            DENSIFY_STEP_SHARE * median_step_rad(&distinct),
+            DENSIFY_MAX_FACTOR * m,
+        )
+        .map_err(fit_err)?
+    } else {
+        (points.clone(), (0..m).collect())
+    };
     let run = |n_ctrl: usize| {
         let opts = options
             .clone()
             .with_degree(degree)
             .with_control_points(n_ctrl);
         if closed {
-            fit_closed(&points, &opts)
+            fit_closed(&fit_points, &opts)
         } else {
-            fit(&points, None, &opts)
+            fit(&fit_points, None, &opts)
         }
     };
     let mut r = run(control_points).map_err(fit_err)?;
@@ -368,10 +390,22 @@ pub fn fit_line(
             }
         }
     }
-    let (spline, params, iterations, converged) =
-        (r.spline, r.parameters, r.iterations, r.converged);
+    let r_max_rad = r.metrics.max_error_rad;
+    let params: Vec<f64> = at.iter().map(|&k| r.parameters[k]).collect();
+    let (spline, iterations, converged) = (r.spline, r.iterations, r.converged);
     let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
-    let (out, _) = finish_fit(
+    // The curve as returned judged against the whole line, both ways (certified).
+    let tw = two_way_distance(
+        &spline,
+        &points,
+        &params,
+        &TwoWayOptions::default()
+            .with_precision_rad(REPORT_TWO_WAY_PRECISION * r_max_rad.max(m_to_rad(1.0)))
+            .with_max_evaluations(1_000_000 + 400 * points.len()),
+    )
+    .map_err(fit_err)?;
+    let input_len = polyline_length(&points);
+    let (mut out, _) = finish_fit(
         Fitted {
             line: &line,
             distinct: &distinct,
@@ -391,6 +425,17 @@ pub fn fit_line(
         output,
         limits,
     )?;
+    let f = &mut out.report.fields;
+    f.insert(
+        "two_way_distance_m".into(),
+        json!(round_up_m(rad_to_m(tw.upper_rad))),
+    );
+    let ratio = if input_len > 0.0 {
+        tw.curve_length_rad / input_len
+    } else {
+        1.0
+    };
+    f.insert("curve_length_ratio".into(), json!(round_to(ratio, 4)));
     Ok(out)
 }
 

@@ -1569,11 +1569,17 @@ mod tests {
         );
         let again = measure(&fit.spline, &pts, &fit.parameters);
         assert_eq!(again.max_error_rad, fit.metrics.max_error_rad);
-        // Without removal the curve is the Douglas–Peucker seed at the first vertex share.
+        // Without removal the curve would be the Douglas–Peucker seed at the first vertex
+        // share, which stores more than Douglas–Peucker at the tolerance: that polyline (or
+        // the one a hair under it, when DP at the tolerance misses the ordered two-way
+        // bound) is returned instead.
         let no_removal =
             fit_to_tolerance(&pts, None, tol, &opts.clone().with_reduce(false)).unwrap();
         let seed = douglas_peucker(&pts, internal_target(VERTEX_SHARES[0] * tol)).len();
-        assert_eq!(no_removal.spline.control_points().len(), seed);
+        assert!(seed > dp);
+        assert!(no_removal.tolerance_met);
+        let dp_under = douglas_peucker(&pts, 0.95 * tol).len();
+        assert!(no_removal.spline.control_points().len() <= dp_under);
         // The two-way distance is certified and met.
         let tw = two_way_distance(
             &fit.spline,

@@ -12,6 +12,7 @@ use super::knots::{
 };
 use super::metrics::ErrorMetrics;
 use super::pass::{run_pass, PassMode};
+use crate::sphere::certify::two_way::{two_way_distance, TwoWayOptions};
 use crate::sphere::curve::bspline::{SphericalBSpline, MAX_DEGREE};
 use crate::sphere::geometry::point::{normalize, Dynamic, PointSet};
 use crate::sphere::SphereError;
@@ -310,7 +311,7 @@ pub fn fit(
     let data_length: f64 = (1..n)
         .map(|i| crate::sphere::geometry::point::angle_between(points.get(i - 1), points.get(i)))
         .sum();
-    let mut best: Option<FitReport> = None;
+    let mut best: Option<(f64, FitReport)> = None;
     let mut first_error = None;
     for knots in candidates {
         if knots.len() < 2 * (p + 1) {
@@ -370,15 +371,33 @@ pub fn fit(
                     continue;
                 }
             }
-            if best
-                .as_ref()
-                .is_none_or(|b| r.metrics.max_error_rad < b.metrics.max_error_rad)
-            {
-                best = Some(r);
+            // Judged against the whole line, both ways: the vertex error cannot see a curve
+            // that leaves a sparse straight stretch between two vertices.
+            let score = if several {
+                let tw = two_way_distance(
+                    &r.spline,
+                    points,
+                    &r.parameters,
+                    &TwoWayOptions::default()
+                        .with_precision_rad(
+                            (SELECTION_PRECISION * r.metrics.max_error_rad)
+                                .max(SELECTION_FLOOR * data_length),
+                        )
+                        .with_max_evaluations(SELECTION_EVALUATIONS + 64 * n),
+                )?;
+                if tw.curve_length_rad > MAX_LENGTH_RATIO * data_length {
+                    continue;
+                }
+                tw.upper_rad
+            } else {
+                r.metrics.max_error_rad
+            };
+            if best.as_ref().is_none_or(|(b, _)| score < *b) {
+                best = Some((score, r));
             }
         }
     }
-    match (best, first_error) {
+    match (best.map(|(_, r)| r), first_error) {
         (Some(r), _) => {
             options.cancel.check()?;
             Ok(r)
@@ -398,6 +417,17 @@ pub fn fit(
 /// Among several knot candidates ([`KnotPlacement::Adaptive`]) one whose curve is longer than
 /// this times the data polyline is not taken.
 pub const MAX_LENGTH_RATIO: f64 = 1.25;
+
+/// Among several candidates the one with the smallest certified two-way distance to the data
+/// polyline wins ([`crate::sphere::two_way`]), measured to this share of its vertex error ...
+const SELECTION_PRECISION: f64 = 0.05;
+
+/// ... or to this share of the polyline's length, if coarser (near-exact fits of long smooth
+/// lines would otherwise spend seconds on digits that do not change the choice) ...
+const SELECTION_FLOOR: f64 = 1e-6;
+
+/// ... with at most this many curve evaluations (plus 64 per point).
+const SELECTION_EVALUATIONS: usize = 200_000;
 
 /// The length of the curve, from 8 samples per knot span (radians).
 fn curve_length(s: &SphericalBSpline) -> f64 {
