@@ -143,15 +143,17 @@ pub(crate) struct OutputArgs {
 #[command(next_help_heading = "Fit")]
 pub(crate) struct FitOptionArgs {
     /// Control points per curve: at least degree + 1 and at most the curve's distinct
-    /// positions [default: a quarter of the distinct positions, at least degree + 1]
+    /// positions [default: a quarter of the distinct positions, or half of them when a quarter
+    /// leaves a position farther from the curve than a quarter of the median step; at least degree + 1]
     #[arg(short = 'n', long, value_name = "N", alias = "control_points")]
     control_points: Option<usize>,
     /// Polynomial degree, 1 to 5 (lowered for a curve with fewer than degree + 1 distinct
     /// positions)
     #[arg(long, value_name = "DEGREE", default_value_t = FitOptions::default().degree)]
     degree: usize,
-    /// Knot placement: geodesic (the paper's adaptive method), euclidean or uniform
-    #[arg(long, value_name = "PLACEMENT", default_value = "geodesic")]
+    /// Knot placement: adaptive (the paper's geodesic feature function with corners as C0
+    /// joints and a share of arc length), geodesic (the paper's), euclidean or uniform
+    #[arg(long, value_name = "PLACEMENT", default_value = "adaptive")]
     knots: KnotPlacement,
     /// Most GLS-PIA iterations, 0 to --max-iterations; a fit stops earlier when its error
     /// stagnates (the paper uses 30)
@@ -160,10 +162,14 @@ pub(crate) struct FitOptionArgs {
     /// Data parameters: chord (cumulative geodesic distance), centripetal or uniform
     #[arg(long, value_name = "METHOD", default_value = "chord")]
     parameterization: Parameterization,
-    /// Optimiser: gls-pia (the paper's progressive iterative approximation) or gauss-newton
-    /// (the same loss, solved in a few Gauss-Newton steps)
-    #[arg(long, value_name = "SOLVER", default_value = "gls-pia")]
+    /// Optimiser: gauss-newton (the paper's loss, solved in a few Gauss-Newton steps) or
+    /// gls-pia (the paper's progressive iterative approximation)
+    #[arg(long, value_name = "SOLVER", default_value = "gauss-newton")]
     solver: Solver,
+    /// Move each position's parameter to its foot point on the curve between solver steps
+    /// (false: chord-length parameters kept, as in the paper)
+    #[arg(long, value_name = "BOOL", default_value_t = true, action = clap::ArgAction::Set)]
+    parameter_correction: bool,
     /// Fit each curve to this tolerance, in metres: every position within it of the curve as
     /// returned, with as few stored numbers as the fitter finds (not with --control-points;
     /// --degree caps the degrees tried, at most 3) [default: none, a fit with --control-points]
@@ -266,7 +272,8 @@ impl FitOptionArgs {
             iterations: self.iterations,
             parameterization: self.parameterization,
             solver: self.solver,
-            ..FitOptions::default()
+            parameter_correction: self.parameter_correction,
+            ..FitOptions::faithful()
         };
         match self.tolerance_m {
             Some(tolerance_m) => Operation::FitToTolerance {

@@ -12,14 +12,16 @@ use super::{EarthError, InterpolateSettings, Limits, OutputOptions, Problem};
 use crate::document::BetaDocument;
 use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
 use crate::sphere::fit::default_control_points;
-use crate::sphere::metrics::{measure, pointwise_errors};
+use crate::sphere::geometry::densify::densify;
+use crate::sphere::knots::KnotPlacement;
+use crate::sphere::metrics::pointwise_errors;
 use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
 use crate::sphere::tolerance::{
     fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions, MAX_LENGTH_RATIO,
 };
 use crate::sphere::two_way::{polyline_length, two_way_distance, TwoWayOptions};
 use crate::sphere::AnyCurve;
-use crate::sphere::{fit, gls_pia_iteration, FitOptions, PointSet, SphereError, SphericalBSpline};
+use crate::sphere::{fit, FitOptions, PointSet, SphereError, SphericalBSpline};
 use serde_json::{json, Map, Value};
 
 /// Consecutive positions closer than this (radians; 0.6 mm on the Earth) are repeats: far below
@@ -30,6 +32,20 @@ pub const REPEAT_ANGLE_RAD: f64 = 1e-10;
 /// mean vertex spacing of the curve (and at least `AUTO_DEVIATION_FLOOR_M`): the curve has no
 /// fit error to compare with, and 0.5 % of a step is far below what the vertices resolve.
 pub const INTERPOLATION_DEVIATION_FRACTION: f64 = 0.005;
+
+/// Without `control_points`, a fit at a quarter of the distinct positions is refitted at half
+/// of them when its max error exceeds this share of the median step between positions. On the
+/// 10m borders of the README's "Default fit" table a quarter leaves 1.8–1.9 km on the
+/// Canada–USA border (median steps 3.8 and 6.2 km), half leaves at most 1 km everywhere; dense
+/// smooth tracks keep a quarter.
+pub const AUTO_COUNT_STEP_SHARE: f64 = 0.25;
+
+/// The faithful default fit inserts points into segments longer than this many median steps
+/// of the line (so no step is longer) ...
+pub const DENSIFY_STEP_SHARE: f64 = 3.0;
+
+/// ... up to this many times the line's distinct positions in all.
+pub const DENSIFY_MAX_FACTOR: usize = 4;
 
 /// Output altitudes are rounded to millimetres.
 const ALTITUDE_DECIMALS: u32 = 3;
@@ -316,8 +332,10 @@ pub fn fit_line(
     limits: &Limits,
 ) -> Result<CurveOutput, EarthError> {
     let (line, distinct) = prepare_line(coords, pointer, closed)?;
+    let closed = closed || is_closed_line(&distinct);
     let m = distinct.len();
     let degree = options.degree.min(m - 1);
+    let cap = limits.max_control_points.max(degree + 1);
     let control_points = match options.control_points {
         Some(n) if n > m => {
             return Err(EarthError::new(
@@ -329,22 +347,65 @@ pub fn fit_line(
             ))
         }
         Some(n) => n,
-        None => default_control_points(m, degree).min(limits.max_control_points.max(degree + 1)),
+        None => default_control_points(m, degree).min(cap),
     };
-    let opts = options
-        .clone()
-        .with_degree(degree)
-        .with_control_points(control_points);
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
-    let (spline, params, iterations, converged) = if closed {
-        fit_closed(&points, &opts).map_err(fit_err)?
+    // The faithful default fits the line, not only its vertices: long segments get points
+    // along them (see `sphere::geometry::densify`), and the vertices' parameters are read off
+    // the fit. The paper's placements fit the vertices as given.
+    let (fit_points, at) = if options.knots == KnotPlacement::Adaptive {
+        densify(
+            &points,
+            DENSIFY_STEP_SHARE * median_step_rad(&distinct),
+            DENSIFY_MAX_FACTOR * m,
+        )
+        .map_err(fit_err)?
     } else {
-        let r = fit(&points, None, &opts).map_err(fit_err)?;
-        (r.spline, r.parameters, r.iterations, r.converged)
+        (points.clone(), (0..m).collect())
     };
+    let run = |n_ctrl: usize| {
+        let opts = options
+            .clone()
+            .with_degree(degree)
+            .with_control_points(n_ctrl);
+        if closed {
+            fit_closed(&fit_points, &opts)
+        } else {
+            fit(&fit_points, None, &opts)
+        }
+    };
+    let mut r = run(control_points).map_err(fit_err)?;
+    if options.control_points.is_none() {
+        // The count from the data: a quarter of the positions, or half of them when a quarter
+        // leaves a position farther from the curve than a quarter of the line's median step
+        // (the curve should follow the line at a finer scale than the line is sampled).
+        let more = m.div_ceil(2).max(degree + 1).min(cap);
+        if more > control_points
+            && r.metrics.max_error_rad > AUTO_COUNT_STEP_SHARE * median_step_rad(&distinct)
+        {
+            let r2 = run(more).map_err(fit_err)?;
+            if r2.metrics.max_error_rad < r.metrics.max_error_rad {
+                r = r2;
+            }
+        }
+    }
+    let r_max_rad = r.metrics.max_error_rad;
+    let params: Vec<f64> = at.iter().map(|&k| r.parameters[k]).collect();
+    let (spline, iterations, converged) = (r.spline, r.iterations, r.converged);
     let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
-    let (out, _) = finish_fit(
+    // The curve as returned judged against the whole line, both ways (certified).
+    let tw = two_way_distance(
+        &spline,
+        &points,
+        &params,
+        &TwoWayOptions::default()
+            .with_precision_rad(REPORT_TWO_WAY_PRECISION * r_max_rad.max(m_to_rad(1.0)))
+            .with_max_evaluations(1_000_000 + 400 * points.len()),
+    )
+    .map_err(fit_err)?;
+    let input_len = polyline_length(&points);
+    let (mut out, _) = finish_fit(
         Fitted {
             line: &line,
             distinct: &distinct,
@@ -364,6 +425,17 @@ pub fn fit_line(
         output,
         limits,
     )?;
+    let f = &mut out.report.fields;
+    f.insert(
+        "two_way_distance_m".into(),
+        json!(round_up_m(rad_to_m(tw.upper_rad))),
+    );
+    let ratio = if input_len > 0.0 {
+        tw.curve_length_rad / input_len
+    } else {
+        1.0
+    };
+    f.insert("curve_length_ratio".into(), json!(round_to(ratio, 4)));
     Ok(out)
 }
 
@@ -493,9 +565,10 @@ pub fn rounding_bound_rad(precision: u32) -> f64 {
 /// its value rounded to millimetres) is within the tolerance. When rounding pushes a fit that
 /// met its target over the tolerance, it is refitted once with a target lowered by the excess.
 ///
-/// A ring is fitted as an open line through its positions (first = last) and then closed by
-/// pinning the end control points together (to their normalised mean), as [`fit_line`] does;
-/// the errors are those of the closed curve, so pinning can cost the tolerance
+/// A ring (or a LineString whose last position repeats its first) is fitted as an open line
+/// through its positions (first = last) and then closed by pinning the end control points
+/// together (to their normalised mean, [`crate::sphere::fit::seam::close_seam`] without the C1
+/// condition); the errors are those of the closed curve, so pinning can cost the tolerance
 /// (`tolerance_met: false`, never hidden).
 ///
 /// `options.degree` caps the degrees tried (1 ..= degree, at most 3); `options.parameterization`
@@ -516,6 +589,7 @@ pub fn fit_line_to_tolerance(
     limits: &Limits,
 ) -> Result<CurveOutput, EarthError> {
     let (line, distinct) = prepare_line(coords, pointer, closed)?;
+    let closed = closed || is_closed_line(&distinct);
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
     let tol_rad = m_to_rad(tolerance_m);
@@ -543,7 +617,7 @@ pub fn fit_line_to_tolerance(
     loop {
         let r = fit_to_tolerance(&points, None, target, &topts).map_err(fit_err)?;
         let spline = if closed {
-            pin_ends(&r.spline).map_err(fit_err)?
+            crate::sphere::fit::seam::close_seam(&r.spline, false).map_err(fit_err)?
         } else {
             r.spline.clone()
         };
@@ -733,69 +807,34 @@ fn round_spline(
     ))
 }
 
-/// GLS-PIA for a closed curve: the clamped spline's end control points are pinned together
-/// (to their normalised mean) after every update, so the curve closes exactly; the update is
-/// otherwise the paper's. Returns the spline with the lowest RMS error seen, the parameters,
-/// the updates made and whether it stopped by stagnation.
+/// Fits a closed line: [`crate::sphere::fit::seam::fit_closed`] (first position = last; smooth
+/// across the seam unless the line turns sharply there).
 fn fit_closed(
     points: &PointSet,
     options: &FitOptions,
-) -> Result<(SphericalBSpline, Vec<f64>, usize, bool), SphereError> {
-    let initial = fit(points, None, &options.clone().with_iterations(0))?;
-    let params = initial.parameters;
-    let mut current = pin_ends(&initial.spline)?;
-    let mut best: Option<(SphericalBSpline, f64)> = None;
-    let mut last_rms = f64::INFINITY;
-    let mut iterations = 0;
-    let mut converged = false;
-    loop {
-        if iterations == options.iterations {
-            let m = measure(&current, points, &params);
-            if best.as_ref().is_none_or(|(_, r)| m.rms_error_rad < *r) {
-                best = Some((current.clone(), m.rms_error_rad));
-            }
-            break;
-        }
-        let before = current.clone();
-        let m = gls_pia_iteration(&mut current, points, &params, options.step);
-        if best.as_ref().is_none_or(|(_, r)| m.rms_error_rad < *r) {
-            best = Some((before, m.rms_error_rad));
-        }
-        if m.max_error_rad == 0.0
-            || (iterations > 0 && last_rms - m.rms_error_rad <= options.stagnation * last_rms)
-        {
-            converged = true;
-            break;
-        }
-        last_rms = m.rms_error_rad;
-        current = pin_ends(&current)?;
-        iterations += 1;
-    }
-    let (spline, _) = best.expect("at least one measurement");
-    Ok((spline, params, iterations, converged))
+) -> Result<crate::sphere::FitReport, SphereError> {
+    crate::sphere::fit::seam::fit_closed(points, options)
 }
 
-fn pin_ends(s: &SphericalBSpline) -> Result<SphericalBSpline, SphereError> {
-    let mut rows = s.control_points().to_rows();
-    let last = rows.len() - 1;
-    let mean: Vec<f64> = rows[0]
-        .iter()
-        .zip(&rows[last])
-        .map(|(a, b)| 0.5 * (a + b))
+/// A LineString whose last position repeats its first (within [`REPEAT_ANGLE_RAD`]) with at
+/// least 4 distinct positions is a closed curve, like a Polygon ring.
+fn is_closed_line(d: &DistinctPositions) -> bool {
+    let n = d.len();
+    n >= 4 && angle_between(&d.points[0], &d.points[n - 1]) <= REPEAT_ANGLE_RAD
+}
+
+/// The median distance between consecutive distinct positions (radians).
+fn median_step_rad(d: &DistinctPositions) -> f64 {
+    let mut steps: Vec<f64> = d
+        .points
+        .windows(2)
+        .map(|w| angle_between(&w[0], &w[1]))
         .collect();
-    let norm = mean.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let pinned: Vec<f64> = if norm > 1e-12 {
-        mean.iter().map(|x| x / norm).collect()
-    } else {
-        rows[0].clone()
-    };
-    rows[0] = pinned.clone();
-    rows[last] = pinned;
-    SphericalBSpline::try_new(
-        s.degree(),
-        s.knots().to_vec(),
-        PointSet::try_from_rows(&rows)?,
-    )
+    if steps.is_empty() {
+        return 0.0;
+    }
+    let k = steps.len() / 2;
+    *steps.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
 /// Maps a math-core error on distinct positions to a GeoJSON error at the input position.

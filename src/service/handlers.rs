@@ -367,7 +367,7 @@ fn sphere_fit_options(
 ) -> Result<(crate::sphere::FitOptions, Option<f64>), ApiError> {
     check_content_type(headers, &[JSON])?;
     let p = Params::new(pairs(q)?, query::SPHERE_FIT_PARAMS)?;
-    let mut options = fit_options(&p)?;
+    let mut options = fit_options(&p, crate::sphere::FitOptions::default())?;
     options.target_max_error_rad = p.num("target_max_error_rad")?;
     let tolerance_rad = query::tolerance(&p, "tolerance_rad")?;
     let limits = &state.config.limits;

@@ -160,6 +160,7 @@ pub const FIT_PARAMS: &[&str] = &[
     "iterations",
     "parameterization",
     "solver",
+    "parameter_correction",
     "tolerance_m",
     "samples",
     "spacing_m",
@@ -177,6 +178,7 @@ pub const SPHERE_FIT_PARAMS: &[&str] = &[
     "iterations",
     "parameterization",
     "solver",
+    "parameter_correction",
     "target_max_error_rad",
     "tolerance_rad",
 ];
@@ -206,16 +208,17 @@ fn output_options(p: &Params) -> Result<OutputOptions, ApiError> {
     })
 }
 
-/// GLS-PIA options from the query (shared by `/v1/fit` and `/v1/sphere/fit`).
-pub fn fit_options(p: &Params) -> Result<FitOptions, ApiError> {
+/// Fit options from the query over `base` (shared by `/v1/fit`, whose defaults are
+/// [`FitOptions::faithful`], and `/v1/sphere/fit`, whose defaults are the paper's).
+pub fn fit_options(p: &Params, base: FitOptions) -> Result<FitOptions, ApiError> {
     let mut o = FitOptions {
         control_points: p.int("control_points")?,
-        ..FitOptions::default()
+        ..base
     };
     if let Some(d) = p.int("degree")? {
         o.degree = d;
     }
-    if let Some(k) = p.get::<KnotPlacement>("knots", "geodesic, euclidean or uniform")? {
+    if let Some(k) = p.get::<KnotPlacement>("knots", "adaptive, geodesic, euclidean or uniform")? {
         o.knots = k;
     }
     if let Some(i) = p.int("iterations")? {
@@ -228,6 +231,9 @@ pub fn fit_options(p: &Params) -> Result<FitOptions, ApiError> {
     }
     if let Some(s) = p.get::<Solver>("solver", "gls-pia or gauss-newton")? {
         o.solver = s;
+    }
+    if let Some(c) = p.get::<bool>("parameter_correction", "true or false")? {
+        o.parameter_correction = c;
     }
     Ok(o)
 }
@@ -287,10 +293,10 @@ pub fn geo_job(
         (_, Some(op)) => op,
         (GeoEndpoint::Fit, None) => match tolerance(&p, "tolerance_m")? {
             Some(tolerance_m) => Operation::FitToTolerance {
-                options: fit_options(&p)?,
+                options: fit_options(&p, FitOptions::faithful())?,
                 tolerance_m,
             },
-            None => Operation::Fit(fit_options(&p)?),
+            None => Operation::Fit(fit_options(&p, FitOptions::faithful())?),
         },
         _ => {
             let d = InterpolateSettings::default();
@@ -401,7 +407,7 @@ mod tests {
     #[test]
     fn defaults_are_the_papers() {
         let job = geo_job(vec![], GeoEndpoint::Fit, &Limits::default()).unwrap();
-        assert_eq!(job.operation, Operation::Fit(FitOptions::default()));
+        assert_eq!(job.operation, Operation::Fit(FitOptions::faithful()));
         assert_eq!(job.output, OutputOptions::default());
     }
 }

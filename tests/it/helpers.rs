@@ -4,8 +4,9 @@
 pub use spherefit::sphere::bspline::clamped_uniform_knots;
 use spherefit::sphere::point::{exp_map, PointSet};
 use spherefit::sphere::SphericalBSpline;
-use std::io::Write;
-use std::process::{Command, Output, Stdio};
+use std::io::{BufRead, BufReader, Lines, Write};
+use std::net::SocketAddr;
+use std::process::{Child, ChildStderr, Command, Output, Stdio};
 
 /// Mean Earth radius (IUGG), metres per radian of geodesic angle.
 pub const EARTH_RADIUS_M: f64 = 6_371_008.8;
@@ -180,4 +181,41 @@ pub fn sph(lon_rad: f64, lat_rad: f64) -> Vec<f64> {
         lat_rad.cos() * lon_rad.sin(),
         lat_rad.sin(),
     ]
+}
+
+/// Starts `spherefit serve` on 127.0.0.1:0 with JSON logs, stopping itself after `exit_after_s`,
+/// with `extra` arguments; returns the child, the address it logged and the rest of its log,
+/// which the caller must keep reading (or drop) so the server never blocks on a full pipe.
+pub fn spawn_server(
+    exit_after_s: u32,
+    extra: &[&str],
+) -> (Child, SocketAddr, Lines<BufReader<ChildStderr>>) {
+    let exit_after = exit_after_s.to_string();
+    let mut args = vec![
+        "serve",
+        "--addr",
+        "127.0.0.1:0",
+        "--log-format",
+        "json",
+        "--exit-after-s",
+        &exit_after,
+    ];
+    args.extend_from_slice(extra);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_spherefit"))
+        .args(&args)
+        .env("RUST_LOG", "warn,spherefit=info")
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("spawn spherefit serve");
+    let stderr = child.stderr.take().unwrap();
+    let mut lines = BufReader::new(stderr).lines();
+    let addr: SocketAddr = loop {
+        let line = lines.next().expect("a log line").unwrap();
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap_or(serde_json::Value::Null);
+        if let Some(a) = v["fields"]["addr"].as_str() {
+            break a.parse().unwrap();
+        }
+    };
+    (child, addr, lines)
 }

@@ -288,30 +288,8 @@ async fn graceful_shutdown_finishes_the_request_in_flight() {
 
 #[test]
 fn the_binary_stops_on_sigterm() {
-    use std::io::{BufRead, BufReader};
-    use std::process::{Command, Stdio};
-    let mut child = Command::new(env!("CARGO_BIN_EXE_spherefit"))
-        .args([
-            "serve",
-            "--addr",
-            "127.0.0.1:0",
-            "--log-format",
-            "json",
-            "--exit-after-s",
-            "60",
-        ])
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn spherefit serve");
-    let stderr = child.stderr.take().unwrap();
-    let mut lines = BufReader::new(stderr).lines();
-    let addr: SocketAddr = loop {
-        let line = lines.next().expect("a log line").unwrap();
-        let v: Value = serde_json::from_str(&line).unwrap_or(Value::Null);
-        if let Some(a) = v["fields"]["addr"].as_str() {
-            break a.parse().unwrap();
-        }
-    };
+    use std::process::Command;
+    let (mut child, addr, lines) = crate::helpers::spawn_server(60, &[]);
     let rt = tokio::runtime::Runtime::new().unwrap();
     let r = rt.block_on(get(addr, "/health"));
     assert_eq!(r.status, 200);

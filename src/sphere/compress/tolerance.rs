@@ -292,8 +292,10 @@ pub fn polyline_numbers(vertices: usize, dim: usize) -> usize {
 ///     .map(|i| { let a = i as f64 * 0.002; let lat = 0.05 * (8.0 * a).sin(); [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()] })
 ///     .collect();
 /// let points = PointSet::try_from_rows(&rows).unwrap();
-/// let fit = fit_to_tolerance(&points, None, 1e-6, &ToleranceOptions::default()).unwrap();
-/// assert!(fit.tolerance_met && fit.metrics.max_error_rad <= 1e-6);
+/// // 1e-5 rad: the polyline's own chords sag 1.6e-6 rad off the wave, so at 1e-6 only a
+/// // polyline stays within the tolerance of the line, both ways.
+/// let fit = fit_to_tolerance(&points, None, 1e-5, &ToleranceOptions::default()).unwrap();
+/// assert!(fit.tolerance_met && fit.two_way_rad <= 1e-5);
 /// assert!(fit.stored_numbers < 2 * 400 / 10);
 /// ```
 pub fn fit_to_tolerance(
@@ -1569,11 +1571,17 @@ mod tests {
         );
         let again = measure(&fit.spline, &pts, &fit.parameters);
         assert_eq!(again.max_error_rad, fit.metrics.max_error_rad);
-        // Without removal the curve is the Douglas–Peucker seed at the first vertex share.
+        // Without removal the curve would be the Douglas–Peucker seed at the first vertex
+        // share, which stores more than Douglas–Peucker at the tolerance: that polyline (or
+        // the one a hair under it, when DP at the tolerance misses the ordered two-way
+        // bound) is returned instead.
         let no_removal =
             fit_to_tolerance(&pts, None, tol, &opts.clone().with_reduce(false)).unwrap();
         let seed = douglas_peucker(&pts, internal_target(VERTEX_SHARES[0] * tol)).len();
-        assert_eq!(no_removal.spline.control_points().len(), seed);
+        assert!(seed > dp);
+        assert!(no_removal.tolerance_met);
+        let dp_under = douglas_peucker(&pts, 0.95 * tol).len();
+        assert!(no_removal.spline.control_points().len() <= dp_under);
         // The two-way distance is certified and met.
         let tw = two_way_distance(
             &fit.spline,

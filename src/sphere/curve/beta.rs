@@ -436,22 +436,8 @@ mod tests {
     use super::*;
     use crate::sphere::geometry::point::angle_between;
     use crate::sphere::interpolate::beta::{interpolate, InterpolationOptions};
+    use crate::sphere::interpolate::paper_examples::example1;
     use approx::assert_relative_eq;
-
-    fn unit(v: [f64; 3]) -> Vec<f64> {
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        v.iter().map(|x| x / n).collect()
-    }
-
-    fn example1() -> PointSet {
-        PointSet::try_from_rows(&[
-            unit([0.6296, -0.1171, -0.7680]),
-            unit([-0.8142, -0.2856, 0.5055]),
-            unit([-0.4037, 0.6855, 0.6059]),
-            unit([-0.7206, -0.5462, -0.4270]),
-        ])
-        .unwrap()
-    }
 
     #[test]
     fn gamma_is_one_for_the_neutral_parameters() {

@@ -39,6 +39,10 @@ pub enum KnotPlacement {
     Euclidean,
     /// Equally spaced in parameter.
     Uniform,
+    /// The geodesic feature function made fit for real lines: sharp corners become C0 joints
+    /// (knots of multiplicity p), differences stop at corners, and the CDF is mixed with arc
+    /// length so sparse straight stretches keep knots ([`super::adaptive_knots`]).
+    Adaptive,
 }
 
 impl std::str::FromStr for Parameterization {
@@ -62,8 +66,9 @@ impl std::str::FromStr for KnotPlacement {
             "geodesic" => Ok(KnotPlacement::Geodesic),
             "euclidean" => Ok(KnotPlacement::Euclidean),
             "uniform" => Ok(KnotPlacement::Uniform),
+            "adaptive" => Ok(KnotPlacement::Adaptive),
             _ => Err(format!(
-                "unknown knot placement {s:?}: use geodesic, euclidean or uniform"
+                "unknown knot placement {s:?}: use adaptive, geodesic, euclidean or uniform"
             )),
         }
     }
@@ -168,6 +173,12 @@ pub fn place_knots(
         });
     }
     let interior = match placement {
+        KnotPlacement::Adaptive => {
+            let cfg = super::adaptive_knots::AdaptiveKnots::default();
+            return Ok(super::adaptive_knots::place(
+                points, params, n_ctrl, p, &cfg,
+            ));
+        }
         KnotPlacement::Uniform => uniform_interior(n_ctrl, p),
         KnotPlacement::Euclidean | KnotPlacement::Geodesic => {
             let geodesic = placement == KnotPlacement::Geodesic;
@@ -211,7 +222,7 @@ fn clamp_knots(mut interior: Vec<f64>, n_ctrl: usize, p: usize) -> Vec<f64> {
 
 /// Nodes of the piecewise linear feature function (eqs. 10–11): `(u_first, 0)`,
 /// `(u^(p)_i, |q^(p)_i|^(1/p))`, `(u_last, 0)`.
-fn feature_function(
+pub(crate) fn feature_function(
     points: &PointSet,
     params: &[f64],
     p: usize,

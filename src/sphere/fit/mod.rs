@@ -2,11 +2,14 @@
 //! ([`mod@gls_pia`]), the Gauss–Newton solver beside it, the shared data pass, and the geodesic
 //! error metrics ([`metrics`]).
 
+pub mod adaptive_knots;
+pub mod footpoint;
 mod gauss_newton;
 pub mod gls_pia;
 mod jacobian;
 pub mod knots;
 pub mod metrics;
 pub(crate) mod pass;
+pub mod seam;
 
 pub use gls_pia::*;

@@ -1,4 +1,5 @@
 //! Geometry of S^n: unit vectors, geodesic angles, SLERP and the log/exp maps every curve and
 //! fitter builds on.
 
+pub mod densify;
 pub mod point;

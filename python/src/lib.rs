@@ -1,0 +1,664 @@
+//! `spherefit._native`: the Python extension module under the `spherefit` package.
+//!
+//! Thin on purpose: every geometry goes through [`spherefit::earth::process_geometry`] (or
+//! [`spherefit::earth::process_feature`] for evaluation) with a [`Job`] built and validated as
+//! the CLI builds it, so a feature gives the same numbers here as from `spherefit fit`. The
+//! S^n functions call [`spherefit::sphere`] and write the documents of `spherefit sphere`.
+//! Geometry crosses as WKB ([`wkb_io`]); the work runs with the GIL released, features in
+//! parallel on the rayon pool.
+
+mod wkb_io;
+
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use spherefit::document::{
+    curve_from_json, pointer_for, FitDocument, InterpolationDocument, SamplesDocument,
+};
+use spherefit::earth::{
+    process_feature, process_geometry, EarthError, InterpolateSettings, Job, Limits, Operation,
+    OutputOptions, Problem, Sampling,
+};
+use spherefit::sphere::cancel::Cancel;
+use spherefit::sphere::curve::even_parameters;
+use spherefit::sphere::document::tolerance_document;
+use spherefit::sphere::{
+    fit, fit_to_tolerance, interpolate, BetaSolver, FitOptions, InterpolationOptions,
+    KnotPlacement, Parameterization, PointSet, Solver, SphereError, SphericalCurve, StepRule,
+    ToleranceOptions,
+};
+
+// The literal defaults in the `#[pyo3(signature)]`s (literals, so that Python's signatures and
+// the stubs show them) are the library's.
+const _: () = assert!(spherefit::sphere::fit::DEFAULT_ITERATIONS == 30);
+const _: () = assert!(spherefit::earth::DEFAULT_PRECISION == 7);
+
+/// An error for Python: `spherefit.SpherefitError` (a `ValueError`) with the feature index,
+/// the pointer and the problem's slug as attributes.
+struct Failure {
+    message: String,
+    index: Option<usize>,
+    pointer: Option<String>,
+    problem: &'static str,
+}
+
+impl Failure {
+    fn option(message: impl Into<String>) -> Failure {
+        Failure {
+            message: message.into(),
+            index: None,
+            pointer: None,
+            problem: "invalid-option",
+        }
+    }
+
+    fn into_py(self, py: Python<'_>) -> PyErr {
+        let made = py
+            .import("spherefit._errors")
+            .and_then(|m| m.getattr("SpherefitError"))
+            .and_then(|cls| {
+                cls.call1((self.message.clone(), self.index, self.pointer, self.problem))
+            });
+        match made {
+            Ok(obj) => PyErr::from_value(obj),
+            Err(e) => e,
+        }
+    }
+}
+
+/// A feature's error: "feature 3 at /coordinates/17: ...".
+fn feature_failure(index: usize, pointer: &str, problem: &'static str, message: String) -> Failure {
+    let message = if pointer.is_empty() {
+        format!("feature {index}: {message}")
+    } else {
+        format!("feature {index} at {pointer}: {message}")
+    };
+    Failure {
+        message,
+        index: Some(index),
+        pointer: Some(pointer.to_string()),
+        problem,
+    }
+}
+
+fn parse<T: std::str::FromStr>(option: &str, value: &str) -> Result<T, Failure>
+where
+    T::Err: std::fmt::Display,
+{
+    value
+        .parse()
+        .map_err(|e| Failure::option(format!("{option}: {e}")))
+}
+
+/// The output options and limits shared by the three GeoJSON operations, as the service reads
+/// its query (`samples` and `spacing_m` together: at most that far apart and at least that many).
+fn output(samples: Option<usize>, spacing_m: Option<f64>, precision: u32) -> OutputOptions {
+    let sampling = match (samples, spacing_m) {
+        (Some(n), Some(s)) => Sampling::SpacingAndSamples {
+            spacing_m: s,
+            samples: n,
+        },
+        (Some(n), None) => Sampling::Samples(n),
+        (None, Some(s)) => Sampling::SpacingM(s),
+        (None, None) => Sampling::Auto,
+    };
+    OutputOptions {
+        sampling,
+        precision,
+    }
+}
+
+fn validated(job: Job) -> Result<Job, Failure> {
+    job.validate().map_err(|e| match e.problem {
+        Problem::InvalidOption { option, message } => Failure::option(format!(
+            "{option}: {}",
+            message.replace("the server's limit", "the limit")
+        )),
+        other => Failure::option(other.to_string()),
+    })?;
+    Ok(job)
+}
+
+/// One processed feature: `None` when it passed through unchanged.
+type Outcome = Option<(Vec<u8>, Value)>;
+
+/// What Python gets back: output WKB (None: keep the input geometry), the operation's
+/// properties object as JSON text, and its scalar fields as a dict, per feature.
+type Columns = (
+    Vec<Option<Py<PyBytes>>>,
+    Vec<Option<String>>,
+    Vec<Option<Py<PyDict>>>,
+);
+
+fn earth_error(index: usize, e: EarthError) -> Failure {
+    feature_failure(index, &e.pointer, e.problem.slug(), e.problem.to_string())
+}
+
+/// Turns a processed Feature into its output geometry (as WKB) and properties object.
+fn outcome(index: usize, feature: Value, key: &str) -> Result<Outcome, Failure> {
+    let geometry = &feature["geometry"];
+    let info = feature["properties"][key].clone();
+    let wkb = wkb_io::write(geometry).map_err(|m| {
+        feature_failure(
+            index,
+            "",
+            "internal",
+            format!("writing the output WKB: {m}"),
+        )
+    })?;
+    Ok(Some((wkb, info)))
+}
+
+/// Runs `one` on every input in parallel, with the GIL released; the first error in input order
+/// is raised. The calling thread waits, taking the GIL back every 50 ms to run Python's signal
+/// handlers: a Ctrl-C (KeyboardInterrupt) cancels `cancel`, which the fitters check, and is
+/// raised once the workers have stopped.
+fn run_all<I, F>(
+    py: Python<'_>,
+    inputs: Vec<Option<I>>,
+    cancel: &Cancel,
+    one: F,
+) -> PyResult<Columns>
+where
+    I: Send + Sync,
+    F: Fn(usize, &I) -> Result<Outcome, Failure> + Send + Sync,
+{
+    let (results, interrupt) = py.detach(|| {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::scope(|scope| {
+            scope.spawn(|| {
+                let r: Vec<Result<Outcome, Failure>> = inputs
+                    .par_iter()
+                    .enumerate()
+                    .map(|(i, x)| match x {
+                        None => Ok(None),
+                        Some(x) => one(i, x),
+                    })
+                    .collect();
+                // The receiver outlives this scope, so the send cannot fail.
+                let _ = tx.send(r);
+            });
+            let mut interrupt = None;
+            loop {
+                match rx.recv_timeout(std::time::Duration::from_millis(50)) {
+                    Ok(r) => return (r, interrupt),
+                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                        if interrupt.is_none() {
+                            if let Err(e) = Python::attach(|py| py.check_signals()) {
+                                cancel.cancel();
+                                interrupt = Some(e);
+                            }
+                        }
+                    }
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                        // The worker panicked; the scope re-raises its panic on exit.
+                        return (Vec::new(), interrupt);
+                    }
+                }
+            }
+        })
+    });
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
+    let mut geoms = Vec::with_capacity(results.len());
+    let mut infos = Vec::with_capacity(results.len());
+    let mut scalars = Vec::with_capacity(results.len());
+    for r in results {
+        match r.map_err(|f| f.into_py(py))? {
+            None => {
+                geoms.push(None);
+                infos.push(None);
+                scalars.push(None);
+            }
+            Some((wkb, info)) => {
+                geoms.push(Some(PyBytes::new(py, &wkb).unbind()));
+                infos.push(Some(info.to_string()));
+                scalars.push(Some(scalar_fields(py, &info)?.unbind()));
+            }
+        }
+    }
+    Ok((geoms, infos, scalars))
+}
+
+/// The top-level numbers, booleans and strings of a properties object.
+fn scalar_fields<'py>(py: Python<'py>, info: &Value) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    if let Value::Object(m) = info {
+        for (k, v) in m {
+            match v {
+                Value::Bool(b) => d.set_item(k, *b)?,
+                Value::Number(n) => match (n.as_u64(), n.as_i64(), n.as_f64()) {
+                    (Some(u), _, _) => d.set_item(k, u)?,
+                    (None, Some(i), _) => d.set_item(k, i)?,
+                    (None, None, Some(f)) => d.set_item(k, f)?,
+                    _ => {}
+                },
+                Value::String(s) => d.set_item(k, s)?,
+                _ => {}
+            }
+        }
+    }
+    Ok(d)
+}
+
+/// Fits (or interpolates) one WKB geometry with `job`.
+fn one_geometry(index: usize, wkb: &[u8], job: &Job, key: &str) -> Result<Outcome, Failure> {
+    let geometry = match wkb_io::read(wkb) {
+        Ok(wkb_io::Input::Curves(g)) => g,
+        Ok(wkb_io::Input::PassThrough) => return Ok(None),
+        Err(p) => {
+            let slug = if p.pointer.is_empty() {
+                "invalid-wkb"
+            } else {
+                "invalid-coordinate"
+            };
+            return Err(feature_failure(index, &p.pointer, slug, p.message));
+        }
+    };
+    let done = process_geometry(&geometry, "", job).map_err(|e| earth_error(index, e))?;
+    if done.stats.curves == 0 {
+        return Ok(None);
+    }
+    outcome(index, done.feature, key)
+}
+
+/// Fits spherical B-splines to WKB lines and rings, as `spherefit fit` does. See
+/// `spherefit.fit` for the options.
+#[pyfunction]
+#[pyo3(signature = (
+    wkbs, *, tolerance_m=None, control_points=None, degree=3, knots="geodesic",
+    iterations=30, parameterization="chord",
+    solver="gls-pia", samples=None, spacing_m=None, precision=7,
+    max_samples=100_000, max_control_points=10_000, max_iterations=1_000
+))]
+#[allow(clippy::too_many_arguments)]
+fn fit_wkb(
+    py: Python<'_>,
+    wkbs: Vec<Option<Vec<u8>>>,
+    tolerance_m: Option<f64>,
+    control_points: Option<usize>,
+    degree: usize,
+    knots: &str,
+    iterations: usize,
+    parameterization: &str,
+    solver: &str,
+    samples: Option<usize>,
+    spacing_m: Option<f64>,
+    precision: u32,
+    max_samples: usize,
+    max_control_points: usize,
+    max_iterations: usize,
+) -> PyResult<Columns> {
+    let job = (|| {
+        let options = FitOptions {
+            control_points,
+            degree,
+            knots: parse::<KnotPlacement>("knots", knots)?,
+            iterations,
+            parameterization: parse::<Parameterization>("parameterization", parameterization)?,
+            solver: parse::<Solver>("solver", solver)?,
+            ..FitOptions::default()
+        };
+        let operation = match tolerance_m {
+            Some(tolerance_m) => Operation::FitToTolerance {
+                options,
+                tolerance_m,
+            },
+            None => Operation::Fit(options),
+        };
+        validated(Job {
+            operation,
+            output: output(samples, spacing_m, precision),
+            limits: Limits {
+                max_control_points,
+                max_samples,
+                max_iterations,
+            },
+            cancel: Cancel::new(),
+        })
+    })()
+    .map_err(|f| f.into_py(py))?;
+    run_all(py, wkbs, &job.cancel, |i, w| {
+        one_geometry(i, w, &job, "fit")
+    })
+}
+
+/// Interpolates WKB lines and rings with spherical Beta-splines, as `spherefit interpolate`.
+#[pyfunction]
+#[pyo3(signature = (
+    wkbs, *, beta1=1.0, beta2=0.0, samples=None, spacing_m=None,
+    precision=7, max_samples=100_000
+))]
+#[allow(clippy::too_many_arguments)]
+fn interpolate_wkb(
+    py: Python<'_>,
+    wkbs: Vec<Option<Vec<u8>>>,
+    beta1: f64,
+    beta2: f64,
+    samples: Option<usize>,
+    spacing_m: Option<f64>,
+    precision: u32,
+    max_samples: usize,
+) -> PyResult<Columns> {
+    let job = validated(Job {
+        operation: Operation::Interpolate(InterpolateSettings { beta1, beta2 }),
+        output: output(samples, spacing_m, precision),
+        limits: Limits {
+            max_samples,
+            ..Limits::default()
+        },
+        cancel: Cancel::new(),
+    })
+    .map_err(|f| f.into_py(py))?;
+    run_all(py, wkbs, &job.cancel, |i, w| {
+        one_geometry(i, w, &job, "interpolation")
+    })
+}
+
+/// Samples stored curves (the JSON of `properties.fit` or `properties.interpolation`, as
+/// `spherefit.fit` writes it) into dense geometry, as `spherefit evaluate`.
+#[pyfunction]
+#[pyo3(signature = (
+    docs, key="fit", *, samples=None, spacing_m=None,
+    precision=7, max_samples=100_000, max_control_points=10_000
+))]
+#[allow(clippy::too_many_arguments)]
+fn evaluate_json(
+    py: Python<'_>,
+    docs: Vec<Option<String>>,
+    key: &str,
+    samples: Option<usize>,
+    spacing_m: Option<f64>,
+    precision: u32,
+    max_samples: usize,
+    max_control_points: usize,
+) -> PyResult<Columns> {
+    if key != "fit" && key != "interpolation" {
+        return Err(
+            Failure::option(format!("key: {key:?}: use \"fit\" or \"interpolation\"")).into_py(py),
+        );
+    }
+    let job = validated(Job {
+        operation: Operation::Evaluate,
+        output: output(samples, spacing_m, precision),
+        limits: Limits {
+            max_samples,
+            max_control_points,
+            ..Limits::default()
+        },
+        cancel: Cancel::new(),
+    })
+    .map_err(|f| f.into_py(py))?;
+    let prefix = format!("/properties/{key}");
+    run_all(py, docs, &job.cancel, |i, text| {
+        let doc: Value = serde_json::from_str(text).map_err(|e| {
+            feature_failure(
+                i,
+                "",
+                "invalid-spline",
+                format!("the {key} JSON is not valid JSON: {e}"),
+            )
+        })?;
+        if !doc.is_object() {
+            return Err(feature_failure(
+                i,
+                "",
+                "invalid-spline",
+                format!(
+                    "the {key} JSON must be an object, as spherefit.fit or interpolate writes it"
+                ),
+            ));
+        }
+        let feature = json!({"type": "Feature", "properties": {key: doc}, "geometry": null});
+        let done = process_feature(&feature, "", &job).map_err(|e| {
+            let pointer = e
+                .pointer
+                .strip_prefix(&prefix)
+                .unwrap_or(&e.pointer)
+                .to_string();
+            earth_error(i, EarthError { pointer, ..e })
+        })?;
+        outcome(i, done.feature, "evaluation")
+    })
+}
+
+/// Rows of an (m, d) array of little-endian f64 passed as bytes.
+fn rows(data: &[u8], m: usize, d: usize) -> Result<Vec<Vec<f64>>, Failure> {
+    if m.checked_mul(d).and_then(|n| n.checked_mul(8)) != Some(data.len()) {
+        return Err(Failure::option(format!(
+            "points: {} bytes for {m} x {d} numbers",
+            data.len()
+        )));
+    }
+    let values: Vec<f64> = data
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect();
+    // Row by row, so that d = 0 gives m empty rows (refused by the library, naming row 0).
+    Ok((0..m)
+        .map(|i| values[i * d..(i + 1) * d].to_vec())
+        .collect())
+}
+
+fn point_set(data: &[u8], m: usize, d: usize) -> Result<PointSet, Failure> {
+    let rows = rows(data, m, d)?;
+    PointSet::try_from_rows(&rows).map_err(|e| sphere_failure(pointer_for("/points", &e), e))
+}
+
+fn sphere_failure(pointer: String, e: SphereError) -> Failure {
+    let message = format!("{pointer}: {e}");
+    Failure {
+        message,
+        index: None,
+        pointer: Some(pointer),
+        problem: "invalid-points",
+    }
+}
+
+/// Fits a spherical B-spline to the rows of an (m, d) array of unit vectors, as
+/// `spherefit sphere fit`; returns its output document as JSON text.
+#[pyfunction]
+#[pyo3(signature = (
+    data, m, d, parameters=None, *, control_points=None, degree=3, knots="geodesic",
+    iterations=30, parameterization="chord", step="deng-lin", solver="gls-pia",
+    target_max_error_rad=None, tolerance_rad=None
+))]
+#[allow(clippy::too_many_arguments)]
+fn sphere_fit(
+    py: Python<'_>,
+    data: Vec<u8>,
+    m: usize,
+    d: usize,
+    parameters: Option<Vec<f64>>,
+    control_points: Option<usize>,
+    degree: usize,
+    knots: &str,
+    iterations: usize,
+    parameterization: &str,
+    step: &str,
+    solver: &str,
+    target_max_error_rad: Option<f64>,
+    tolerance_rad: Option<f64>,
+) -> PyResult<String> {
+    let run = || -> Result<String, Failure> {
+        let parameterization = parse::<Parameterization>("parameterization", parameterization)?;
+        let mut options = FitOptions::default()
+            .with_degree(degree)
+            .with_knots(parse::<KnotPlacement>("knots", knots)?)
+            .with_iterations(iterations)
+            .with_parameterization(parameterization)
+            .with_step(parse::<StepRule>("step", step)?)
+            .with_solver(parse::<Solver>("solver", solver)?);
+        options.control_points = control_points;
+        if let Some(t) = target_max_error_rad {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(Failure::option(format!(
+                    "target_max_error_rad: {t}: the target must be a number of radians >= 0"
+                )));
+            }
+        }
+        options.target_max_error_rad = target_max_error_rad;
+        let points = point_set(&data, m, d)?;
+        if let Some(tolerance_rad) = tolerance_rad {
+            let mut t = ToleranceOptions {
+                parameterization,
+                ..ToleranceOptions::default()
+            };
+            t.degrees.retain(|&p| p <= degree.max(1));
+            let r = fit_to_tolerance(&points, parameters.as_deref(), tolerance_rad, &t).map_err(
+                |e| {
+                    let field = match e {
+                        SphereError::InvalidParameters { .. } => "parameters",
+                        SphereError::TooFewPoints { .. }
+                        | SphereError::AllPointsEqual { .. }
+                        | SphereError::Antipodal { .. } => "points",
+                        _ => "tolerance_rad",
+                    };
+                    sphere_failure(field.into(), e)
+                },
+            )?;
+            return Ok(tolerance_document(&r).to_string());
+        }
+        let report = fit(&points, parameters.as_deref(), &options).map_err(|e| {
+            let field = match e {
+                SphereError::InvalidDegree { .. } => "degree".to_string(),
+                SphereError::InvalidControlPointCount { .. } => "control_points".to_string(),
+                SphereError::InvalidParameters { .. } => "parameters".to_string(),
+                _ => pointer_for("/points", &e),
+            };
+            sphere_failure(field, e)
+        })?;
+        serde_json::to_string(&FitDocument::from(&report))
+            .map_err(|e| Failure::option(format!("writing the document: {e}")))
+    };
+    py.detach(run).map_err(|f| f.into_py(py))
+}
+
+/// Interpolates the rows of an (m, d) array with a spherical Beta-spline, as
+/// `spherefit sphere interpolate`; returns its output document as JSON text.
+#[pyfunction]
+#[pyo3(signature = (data, m, d, *, beta1=vec![1.0], beta2=vec![0.0], solver="newton", max_iterations=None))]
+#[allow(clippy::too_many_arguments)]
+fn sphere_interpolate(
+    py: Python<'_>,
+    data: Vec<u8>,
+    m: usize,
+    d: usize,
+    beta1: Vec<f64>,
+    beta2: Vec<f64>,
+    solver: &str,
+    max_iterations: Option<usize>,
+) -> PyResult<String> {
+    let run = || -> Result<String, Failure> {
+        let points = point_set(&data, m, d)?;
+        let mut options = InterpolationOptions::default()
+            .with_beta1_per_point(beta1)
+            .with_beta2_per_point(beta2)
+            .with_solver(parse::<BetaSolver>("solver", solver)?);
+        options.max_iterations = max_iterations;
+        let result = interpolate(&points, &options).map_err(|e| {
+            let pointer = match &e {
+                SphereError::InvalidShapeParameter { field, index, .. } => {
+                    format!("{field}/{index}")
+                }
+                SphereError::ShapeParameterCount { .. } => "beta".to_string(),
+                SphereError::RepeatedPoint { index, .. } | SphereError::Antipodal { index, .. } => {
+                    format!("/points/{index}")
+                }
+                SphereError::NotInterpolated { joint, .. }
+                | SphereError::DegenerateArc { joint, .. } => format!("/points/{joint}"),
+                _ => "/points".to_string(),
+            };
+            sphere_failure(pointer, e)
+        })?;
+        serde_json::to_string(&InterpolationDocument::from(&result))
+            .map_err(|e| Failure::option(format!("writing the document: {e}")))
+    };
+    py.detach(run).map_err(|f| f.into_py(py))
+}
+
+/// Evaluates a curve document (a spline or Beta-spline document, or the output of `sphere_fit`
+/// or `sphere_interpolate`) at `at`, or at `samples` evenly spaced parameters; returns the
+/// parameters, the points as little-endian f64 bytes, and the dimension.
+#[pyfunction]
+#[pyo3(signature = (doc, samples=101, at=None))]
+fn sphere_evaluate(
+    py: Python<'_>,
+    doc: &str,
+    samples: usize,
+    at: Option<Vec<f64>>,
+) -> PyResult<(Vec<f64>, Py<PyBytes>, usize)> {
+    const MAX_SAMPLES: usize = 10_000_000;
+    let run = || -> Result<(Vec<f64>, Vec<u8>, usize), Failure> {
+        let v: Value = serde_json::from_str(doc)
+            .map_err(|e| Failure::option(format!("the curve document is not valid JSON: {e}")))?;
+        let curve = curve_from_json(&v).map_err(|e| Failure {
+            message: e.to_string(),
+            index: None,
+            pointer: Some(e.pointer.clone()),
+            problem: "invalid-spline",
+        })?;
+        let ts = match at {
+            Some(ts) => {
+                if let Some(i) = ts.iter().position(|t| !t.is_finite()) {
+                    return Err(Failure::option(format!(
+                        "at: value {i} is not a finite number"
+                    )));
+                }
+                ts
+            }
+            None if samples == 0 => {
+                return Err(Failure::option("samples: 0 points: give at least 1"))
+            }
+            None if samples > MAX_SAMPLES => {
+                return Err(Failure::option(format!(
+                    "samples: {samples} is more than the {MAX_SAMPLES} points one call may return"
+                )))
+            }
+            None => even_parameters(curve.domain(), samples),
+        };
+        let pts = curve.evaluate_many(&ts);
+        let doc = SamplesDocument {
+            parameters: ts,
+            points: pts.to_rows(),
+        };
+        let bytes: Vec<u8> = doc
+            .points
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        Ok((doc.parameters, bytes, curve.dim()))
+    };
+    let (ts, bytes, dim) = py.detach(run).map_err(|f| f.into_py(py))?;
+    Ok((ts, PyBytes::new(py, &bytes).unbind(), dim))
+}
+
+/// The extension module.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(fit_wkb, m)?)?;
+    m.add_function(wrap_pyfunction!(interpolate_wkb, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate_json, m)?)?;
+    m.add_function(wrap_pyfunction!(sphere_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(sphere_interpolate, m)?)?;
+    m.add_function(wrap_pyfunction!(sphere_evaluate, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use spherefit::earth::Limits;
+
+    #[test]
+    fn signature_limits_are_the_library_defaults() {
+        let l = Limits::default();
+        assert_eq!(
+            (l.max_samples, l.max_control_points, l.max_iterations),
+            (100_000, 10_000, 1_000)
+        );
+    }
+}

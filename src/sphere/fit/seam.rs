@@ -1,0 +1,219 @@
+//! Closed curves: a clamped spline whose two ends meet, smooth across the seam where the data
+//! are smooth there.
+//!
+//! A closed curve is stored as an ordinary clamped spline (so every reader of spline documents
+//! evaluates it unchanged) with `P_0 = P_{n−1} = S`. The end derivatives of a clamped spherical
+//! B-spline are `C'(0) = p / a · log_S(P_1)` and `C'(1) = −p / b · log_S(P_{n−2})` with
+//! `a = u_{p+1} − u_p` and `b = u_n − u_{n−1}` (the de Boor triangle reduces to one SLERP at
+//! first order), so the curve is C1 across the seam exactly when
+//! `log_S(P_1) / a = −log_S(P_{n−2}) / b`: S on the geodesic from P_{n−2} to P_1, splitting it in
+//! the ratio b : a. That is the "equivalent construction" of a periodic spline used here: C1
+//! (not C^(p−1)) at the seam, C^(p−1) elsewhere, and a readable clamped document.
+//!
+//! Where the data turn sharply at the seam (by at least
+//! [`super::adaptive_knots::CORNER_ANGLE_RAD`], e.g. a polygon ring starting at a corner), the
+//! seam is a corner instead: only `P_0 = P_{n−1}` (C0), as for corners elsewhere.
+//!
+//! [`fit_closed`] fits the line as an open curve with the given options, then alternates
+//! GLS-PIA updates with [`close_seam`] (the projection onto the closed curves) so the control
+//! points near the seam settle with the constraint in force.
+
+use super::adaptive_knots::CORNER_ANGLE_RAD;
+use super::gls_pia::{fit, gls_pia_iteration, FitOptions, FitReport, IterationError};
+use super::metrics::measure;
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::geometry::point::{exp_map, log_map, normalize, Dynamic, PointSet};
+use crate::sphere::SphereError;
+
+/// GLS-PIA updates with the seam constraint after the open fit.
+pub const SEAM_ITERATIONS: usize = 30;
+
+/// True when a closed line (last point = first) turns by less than the corner angle at its
+/// seam: the direction into the last point and out of the first are nearly the same.
+pub fn seam_is_smooth(points: &PointSet) -> bool {
+    let n = points.len();
+    if n < 4 {
+        return false;
+    }
+    let rows = [
+        points.get(n - 2).to_vec(),
+        points.get(0).to_vec(),
+        points.get(1).to_vec(),
+    ];
+    let three = PointSet::try_from_rows(&rows).expect("unit vectors");
+    super::adaptive_knots::turning_angles(&three)[1] < CORNER_ANGLE_RAD
+}
+
+/// The closed curve nearest `s`: `P_0 = P_{n−1}` (their normalised mean) and, when `smooth`
+/// and the degree is at least 2, the C1 seam condition, met by moving `P_1` and `P_{n−2}` the
+/// least (weighted by the end spans) in the tangent plane at the seam point.
+///
+/// # Errors
+/// When the result has (nearly) antipodal neighbouring control points.
+pub fn close_seam(s: &SphericalBSpline, smooth: bool) -> Result<SphericalBSpline, SphereError> {
+    let mut rows = s.control_points().to_rows();
+    let n = rows.len();
+    let dim = s.dim();
+    let mut seam: Vec<f64> = rows[0]
+        .iter()
+        .zip(&rows[n - 1])
+        .map(|(a, b)| 0.5 * (a + b))
+        .collect();
+    if normalize(Dynamic(dim), &mut seam) <= 1e-12 {
+        seam.clone_from(&rows[0]);
+    }
+    rows[0].clone_from(&seam);
+    rows[n - 1].clone_from(&seam);
+    let p = s.degree();
+    if smooth && p >= 2 && n >= 4 {
+        let k = s.knots();
+        let (a, b) = (k[p + 1] - k[p], k[n] - k[n - 1]);
+        if a > 0.0 && b > 0.0 {
+            let x1: Vec<f64> = log_map(&seam, &rows[1])?.iter().map(|v| v / a).collect();
+            let x2: Vec<f64> = log_map(&seam, &rows[n - 2])?
+                .iter()
+                .map(|v| -v / b)
+                .collect();
+            let (wa, wb) = (a * a, b * b);
+            let m: Vec<f64> = x1
+                .iter()
+                .zip(&x2)
+                .map(|(u, v)| (wa * u + wb * v) / (wa + wb))
+                .collect();
+            rows[1] = exp_map(&seam, &m.iter().map(|v| a * v).collect::<Vec<_>>())?;
+            rows[n - 2] = exp_map(&seam, &m.iter().map(|v| -b * v).collect::<Vec<_>>())?;
+        }
+    }
+    SphericalBSpline::try_new(p, s.knots().to_vec(), PointSet::try_from_rows(&rows)?)
+}
+
+/// Fits a closed line (`points` ending where they start) with `options`, then closes the curve
+/// ([`close_seam`], smooth when [`seam_is_smooth`]) and runs [`SEAM_ITERATIONS`] GLS-PIA
+/// updates, each followed by the projection. Returns the closed curve with the lowest RMS
+/// error measured; its metrics and history are those of closed curves only after the open fit.
+///
+/// # Errors
+/// As [`fit`].
+pub fn fit_closed(points: &PointSet, options: &FitOptions) -> Result<FitReport, SphereError> {
+    let open = fit(points, None, options)?;
+    let smooth = seam_is_smooth(points);
+    let params = open.parameters.clone();
+    let mut current = close_seam(&open.spline, smooth)?;
+    let mut history = open.history.clone();
+    let mut best: Option<(SphericalBSpline, super::metrics::ErrorMetrics)> = None;
+    let mut iterations = open.iterations;
+    for _ in 0..SEAM_ITERATIONS {
+        let before = current.clone();
+        let m = gls_pia_iteration(&mut current, points, &params, options.step);
+        history.push(IterationError {
+            max_error_rad: m.max_error_rad,
+            mean_error_rad: m.mean_error_rad,
+        });
+        if best
+            .as_ref()
+            .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
+        {
+            best = Some((before, m));
+        }
+        current = close_seam(&current, smooth)?;
+        iterations += 1;
+    }
+    let m = measure(&current, points, &params);
+    if best
+        .as_ref()
+        .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
+    {
+        best = Some((current, m));
+    }
+    let (spline, metrics) = best.expect("at least one measurement");
+    Ok(FitReport {
+        spline,
+        parameters: params,
+        metrics,
+        iterations,
+        converged: open.converged,
+        history,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ring(n: usize) -> PointSet {
+        let rows: Vec<Vec<f64>> = (0..=n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * (i % n) as f64 / n as f64;
+                let (lon, lat) = (0.3 * a.cos(), 0.2 * a.sin() + 0.02 * (5.0 * a).sin());
+                vec![lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
+            })
+            .collect();
+        PointSet::try_from_rows(&rows).unwrap()
+    }
+
+    #[test]
+    fn a_smooth_ring_is_closed_and_c1_across_its_seam() {
+        let pts = ring(80);
+        assert!(seam_is_smooth(&pts));
+        let r = fit_closed(&pts, &FitOptions::default().with_control_points(16)).unwrap();
+        let s = &r.spline;
+        let (a, b) = (s.evaluate(0.0), s.evaluate(1.0));
+        assert_eq!(a, b, "the ends meet exactly");
+        // One-sided derivatives at both ends agree (finite differences, h = 1e-6).
+        let h = 1e-6;
+        let d0: Vec<f64> = s
+            .evaluate(h)
+            .iter()
+            .zip(&a)
+            .map(|(x, y)| (x - y) / h)
+            .collect();
+        let d1: Vec<f64> = b
+            .iter()
+            .zip(&s.evaluate(1.0 - h))
+            .map(|(x, y)| (x - y) / h)
+            .collect();
+        let norm = d0.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let diff = d0
+            .iter()
+            .zip(&d1)
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(
+            diff < 1e-4 * norm,
+            "C1 at the seam: |C'(0) - C'(1)| = {diff}, |C'| = {norm}"
+        );
+        // Closing costs little against the open fit of the same line.
+        let open = fit(&pts, None, &FitOptions::default().with_control_points(16)).unwrap();
+        assert!(
+            r.metrics.max_error_rad < 1.5 * open.metrics.max_error_rad,
+            "{} vs open {}",
+            r.metrics.max_error_rad,
+            open.metrics.max_error_rad
+        );
+    }
+
+    #[test]
+    fn a_ring_starting_at_a_corner_keeps_the_corner() {
+        // A spherical triangle, starting at a vertex.
+        let v = [[0.0, 0.0], [0.3, 0.0], [0.15, 0.25]];
+        let mut rows = Vec::new();
+        for k in 0..3 {
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            for j in 0..20 {
+                let f = j as f64 / 20.0;
+                let (lon, lat) = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]));
+                rows.push(vec![
+                    lat.cos() * lon.cos(),
+                    lat.cos() * lon.sin(),
+                    lat.sin(),
+                ]);
+            }
+        }
+        rows.push(rows[0].clone());
+        let pts = PointSet::try_from_rows(&rows).unwrap();
+        assert!(!seam_is_smooth(&pts));
+        let r = fit_closed(&pts, &FitOptions::default().with_control_points(20)).unwrap();
+        assert_eq!(r.spline.evaluate(0.0), r.spline.evaluate(1.0));
+    }
+}
