@@ -400,8 +400,12 @@ pub fn fit_line(
         &points,
         &params,
         &TwoWayOptions::default()
-            .with_precision_rad(REPORT_TWO_WAY_PRECISION * r_max_rad.max(m_to_rad(1.0)))
-            .with_max_evaluations(1_000_000 + 400 * points.len()),
+            .with_precision_rad(
+                (REPORT_TWO_WAY_PRECISION * r_max_rad)
+                    .max(REPORT_TWO_WAY_LENGTH_SHARE * polyline_length(&points))
+                    .max(m_to_rad(0.5)),
+            )
+            .with_max_evaluations(REPORT_TWO_WAY_EVALUATIONS + 64 * points.len()),
     )
     .map_err(fit_err)?;
     let input_len = polyline_length(&points);
@@ -703,6 +707,16 @@ pub fn fit_line_to_tolerance(
 
 /// Precision of the reported two-way distance, as a share of the tolerance.
 const REPORT_TWO_WAY_PRECISION: f64 = 0.01;
+
+/// Without a tolerance the two-way distance is reported to 1 % of the max error or to this
+/// share of the line's length, whichever is coarser (at least half a metre): near-exact fits of
+/// long lines would otherwise spend seconds proving centimetres (the speed bound of the SLERP
+/// triangle is first-order tight, so the cost grows as length / precision) ...
+const REPORT_TWO_WAY_LENGTH_SHARE: f64 = 1e-5;
+
+/// ... with at most this many curve evaluations (plus 64 per position); past them the bound
+/// stays proven, only looser.
+const REPORT_TWO_WAY_EVALUATIONS: usize = 50_000;
 
 /// Metres rounded up to millimetres: for bounds, which must not shrink in print.
 fn round_up_m(x: f64) -> f64 {

@@ -147,6 +147,12 @@ impl Drop for Scope {
     }
 }
 
+/// The token entered on the current thread ([`Cancel::enter`]), to hand to worker threads
+/// (rayon's threads do not see the caller's scope); an inheriting token when none is.
+pub fn current() -> Cancel {
+    CURRENT.with(|c| c.borrow().clone())
+}
+
 /// Whether the token entered on the current thread ([`Cancel::enter`]) is cancelled.
 pub fn cancelled() -> bool {
     CURRENT.with(|c| {

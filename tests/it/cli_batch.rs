@@ -508,7 +508,7 @@ fn help_reads_like_a_manual() {
         "a quarter of the distinct positions",
         "--degree <DEGREE>",
         "[default: 3]",
-        "[default: geodesic]",
+        "[default: adaptive]",
         "[default: 30]",
         "[default: chord]",
         "in metres",

@@ -253,7 +253,14 @@ async fn border_fit_errors_match_an_independent_recomputation() {
     let fc: Value = serde_json::from_str(BORDER).unwrap();
     let ten_m = fc["features"][2].clone();
     assert_eq!(ten_m["properties"]["resolution"], "10m");
-    let r = post_geo(&app, "/v1/fit?control_points=120", &ten_m).await;
+    // The paper's method (chord parameters, kept): its errors can be recomputed from the
+    // spline alone. The default moves parameters to foot points.
+    let r = post_geo(
+        &app,
+        "/v1/fit?control_points=120&knots=geodesic&solver=gls-pia&parameter_correction=false",
+        &ten_m,
+    )
+    .await;
     assert_eq!(r.content_type(), "application/geo+json");
     let out = ok(&r);
     let f = &out["features"][0];
@@ -407,15 +414,12 @@ async fn gauss_newton_fits_the_border_at_least_as_well_as_gls_pia() {
     let fc: Value = serde_json::from_str(BORDER).unwrap();
     let ten_m = fc["features"][2].clone();
     assert_eq!(ten_m["properties"]["resolution"], "10m");
-    let pia = ok(&post_geo(&app, "/v1/fit?control_points=120", &ten_m).await);
-    let explicit = ok(&post_geo(&app, "/v1/fit?control_points=120&solver=gls-pia", &ten_m).await);
-    assert_eq!(pia, explicit, "gls-pia is the default");
-    let gn = ok(&post_geo(
-        &app,
-        "/v1/fit?control_points=120&solver=gauss-newton",
-        &ten_m,
-    )
-    .await);
+    // The paper's knots and chord parameters, so the errors can be recomputed from the spline.
+    let paper = "/v1/fit?control_points=120&knots=geodesic&parameter_correction=false";
+    let pia = ok(&post_geo(&app, &format!("{paper}&solver=gls-pia"), &ten_m).await);
+    let default_solver = ok(&post_geo(&app, paper, &ten_m).await);
+    let gn = ok(&post_geo(&app, &format!("{paper}&solver=gauss-newton"), &ten_m).await);
+    assert_eq!(default_solver, gn, "gauss-newton is the default solver");
     let (p, g) = (
         &pia["features"][0]["properties"]["fit"],
         &gn["features"][0]["properties"]["fit"],

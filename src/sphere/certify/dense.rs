@@ -94,8 +94,13 @@ pub fn sample_within_budget(
     // keep their bound.
     let mut bound = vec![f64::NAN; ts.len() - 1];
     let mut pending: Vec<usize> = (0..ts.len() - 1).collect();
-    let budget = max_evaluations;
+    let mut budget = max_evaluations;
+    // Cancelled work (the caller's token) ends the halving: the bound proven so far stands.
+    let token = crate::sphere::cancel::current();
     loop {
+        if token.is_cancelled() {
+            budget = budget.min(evaluations);
+        }
         let last_round = ts.len() >= max_points || evaluations >= budget;
         let cap = if last_round {
             FINAL_CHORD_EVALUATIONS.min(budget.saturating_sub(evaluations) / pending.len().max(1))

@@ -121,7 +121,9 @@ pub fn polyline_length(points: &PointSet) -> f64 {
 /// `params` (one per point, non-decreasing, inside the curve's domain; see the module docs).
 ///
 /// # Errors
-/// [`SphereError::TooFewPoints`] for fewer than 2 points, [`SphereError::DimensionMismatch`]
+/// [`SphereError::Cancelled`] when the token entered on the calling thread is cancelled
+/// ([`crate::sphere::cancel`]); [`SphereError::TooFewPoints`] for fewer than 2 points,
+/// [`SphereError::DimensionMismatch`]
 /// when the points' dimension is not the curve's, [`SphereError::InvalidParameters`] for a
 /// wrong count, non-finite or decreasing parameters.
 ///
@@ -191,6 +193,8 @@ pub fn two_way_distance(
     let eps = options.precision_rad.max(ROUNDING_SLACK_RAD);
     let decide = options.decide_rad.unwrap_or(f64::INFINITY);
     let stop = AtomicBool::new(vertex_max > decide);
+    // The caller's cancellation token, for the worker threads.
+    let token = crate::sphere::cancel::current();
     let domain_width = (hi - lo).abs().max(hi.abs()).max(lo.abs()).max(1.0);
     let pieces: Vec<Piece> = (0..n - 1)
         .into_par_iter()
@@ -226,6 +230,7 @@ pub fn two_way_distance(
                     decide,
                     stop: &stop,
                     domain_width,
+                    token: &token,
                 },
             )
         })
@@ -253,6 +258,7 @@ pub fn two_way_distance(
         out.evaluations += p.evaluations;
         out.budget_exhausted |= p.exhausted;
     }
+    token.check()?;
     if stop.load(Ordering::Relaxed) {
         out.exceeded = true;
         out.upper_rad = std::f64::consts::PI;
@@ -279,6 +285,8 @@ struct PieceInput<'a> {
     stop: &'a AtomicBool,
     /// Scale of the parameters, for the width below which an unbounded interval is given up.
     domain_width: f64,
+    /// Cancelled: refining stops (the caller then returns `Cancelled`).
+    token: &'a crate::sphere::cancel::Cancel,
 }
 
 struct Piece {
@@ -384,6 +392,7 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
         if inp.stop.load(Ordering::Relaxed) {
             break;
         }
+        exhausted |= inp.token.is_cancelled();
         let level = level_for(&inp, lower);
         let mut split: Vec<(usize, usize)> = Vec::new();
         for &(iu, iv) in &open {
@@ -456,6 +465,7 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
             upper2 = PI;
             break;
         }
+        exhausted |= inp.token.is_cancelled();
         let level = level_for(&inp, lower);
         let (sup, bad) = arc_to_samples(&frame, &s, level, covered);
         upper2 = sup;

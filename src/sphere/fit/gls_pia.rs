@@ -424,10 +424,10 @@ const SELECTION_PRECISION: f64 = 0.05;
 
 /// ... or to this share of the polyline's length, if coarser (near-exact fits of long smooth
 /// lines would otherwise spend seconds on digits that do not change the choice) ...
-const SELECTION_FLOOR: f64 = 1e-6;
+const SELECTION_FLOOR: f64 = 1e-5;
 
 /// ... with at most this many curve evaluations (plus 64 per point).
-const SELECTION_EVALUATIONS: usize = 200_000;
+const SELECTION_EVALUATIONS: usize = 50_000;
 
 /// The length of the curve, from 8 samples per knot span (radians).
 fn curve_length(s: &SphericalBSpline) -> f64 {
