@@ -9,7 +9,8 @@ Each LineString (and Polygon ring) of each file is fitted three ways with `spher
              distinct positions (the previous default);
   uniform  - --knots uniform --solver gauss-newton --parameter-correction false at the count the
              default chose.
-Prints per file: lines, worst and median max error (m), mean of the mean errors (m), lines where
+Prints per file: lines, worst and median max error (m), mean of the mean errors (m), the
+certified two-way distances (worst / median for the default, worst for the others), lines where
 the default is worse than uniform + Gauss-Newton, and the total control points of the default.
 """
 import json, math, subprocess, sys
@@ -31,8 +32,8 @@ def lines(path):
 
 def main():
     binary, files = sys.argv[1], sys.argv[2:]
-    print("| data | lines | default: worst / median max (m) | mean (m) | paper: worst / median max | mean | uniform + GN at the default's count: worst / median max | mean | default worse than uniform + GN | control points (default) |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("| data | lines | default: worst / median max (m) | mean (m) | two-way worst / median (m) | paper: worst / median max | mean | paper two-way worst | uniform + GN at the default's count: worst / median max | mean | uniform + GN two-way worst | default worse than uniform + GN (max) | control points (default) |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for path in files:
         rows = []
         for feat, n in lines(path):
@@ -48,8 +49,12 @@ def main():
             mx = sorted(r[k]["max_error_m"] for r in rows)
             return mx[-1], mx[len(mx) // 2], sum(r[k]["mean_error_m"] for r in rows) / len(rows)
         (dw, dm, da), (pw, pm, pa), (uw, um, ua) = stats(0), stats(1), stats(2)
+        def two_way(k):
+            tw = sorted(r[k]["two_way_distance_m"] for r in rows)
+            return tw[-1], tw[len(tw) // 2]
+        (dtw, dtm), (ptw, _), (utw, _) = two_way(0), two_way(1), two_way(2)
         worse = sum(1 for d, _, u in rows if d["max_error_m"] > u["max_error_m"])
         ctrl = sum(r[0]["control_points"] for r in rows)
-        print(f"| {path.split('/')[-1]} | {len(rows)} | {dw:,.0f} / {dm:,.0f} | {da:,.0f} | {pw:,.0f} / {pm:,.0f} | {pa:,.0f} | {uw:,.0f} / {um:,.0f} | {ua:,.0f} | {worse} | {ctrl:,} |")
+        print(f"| {path.split('/')[-1]} | {len(rows)} | {dw:,.0f} / {dm:,.0f} | {da:,.0f} | {dtw:,.0f} / {dtm:,.0f} | {pw:,.0f} / {pm:,.0f} | {pa:,.0f} | {ptw:,.0f} | {uw:,.0f} / {um:,.0f} | {ua:,.0f} | {utw:,.0f} | {worse} | {ctrl:,} |")
 
 main()
