@@ -58,7 +58,7 @@ const FAR_FROM_APEX_RAD: f64 = FRAC_PI_2 - 1e-6;
 
 /// Shortcuts shorter than this have a tangent direction at their ends accurate to
 /// ~10⁻¹⁶ / 10⁻⁷ = 10⁻⁹ rad, so the wedge tests stay within the rounding margin
-/// ([`rounding_margin`]) for tolerances up to ~10⁻³ rad and points within the tolerance of
+/// (`rounding_margin`) for tolerances up to ~10⁻³ rad and points within the tolerance of
 /// the arc; shorter ones are checked point by point.
 pub const WELL_CONDITIONED_ARC_RAD: f64 = 1e-7;
 
