@@ -178,6 +178,84 @@ fn douglas_peucker_dim<D: Dim>(d: D, points: &PointSet, tolerance_rad: f64) -> V
     (0..n).filter(|&i| keep[i]).collect()
 }
 
+/// Douglas–Peucker for lines matched in order: every point within `tolerance_rad` of its chord
+/// at an along-chord position that never goes back.
+///
+/// Plain Douglas–Peucker lets a chord cut across a fjord or an out-and-back spike whose points
+/// all lie near the chord but run along it forwards and then backwards; matched in order (the
+/// two-way distance of [`crate::sphere::two_way`]), the points coming back are far from where
+/// the curve already is. Here a point's error is its distance to the chord point at the
+/// furthest along-chord position reached so far (its own when it is further on), so a kept
+/// chord is within the tolerance of its points in order. Never fewer vertices than
+/// [`douglas_peucker`] at the same tolerance.
+///
+/// # Example
+/// ```
+/// use spherefit::sphere::{simplify::{douglas_peucker, douglas_peucker_ordered}, PointSet};
+/// // Along the equator to 0.3 rad, back to 0.1, on to 0.5: every point is on one great circle.
+/// let rows: Vec<[f64; 3]> = [0.0, 0.3, 0.1, 0.5]
+///     .iter()
+///     .map(|&a: &f64| [a.cos(), a.sin(), 0.0])
+///     .collect();
+/// let line = PointSet::try_from_rows(&rows).unwrap();
+/// assert_eq!(douglas_peucker(&line, 1e-3), vec![0, 3]);
+/// assert_eq!(douglas_peucker_ordered(&line, 1e-3), vec![0, 1, 2, 3]);
+/// ```
+pub fn douglas_peucker_ordered(points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
+    let n = points.len();
+    if n <= 2 {
+        return (0..n).collect();
+    }
+    crate::with_dim!(points.dim(), |d| {
+        let mut keep = vec![false; n];
+        keep[0] = true;
+        keep[n - 1] = true;
+        let mut stack = vec![(0, n - 1)];
+        let mut at_reach = vec![0.0; d.get()];
+        while let Some((i0, i1)) = stack.pop() {
+            if i1 <= i0 + 1 {
+                continue;
+            }
+            let frame = ArcFrame::new(d, points.get(i0), points.get(i1));
+            let split = if frame.antipodal {
+                Some((i0 + i1) / 2)
+            } else {
+                let (mut worst, mut at) = (-1.0, i0 + 1);
+                let mut reach: f64 = 0.0;
+                for j in i0 + 1..i1 {
+                    let q = points.get(j);
+                    let phi = if frame.degenerate() {
+                        0.0
+                    } else {
+                        dot(d, q, &frame.e2).atan2(dot(d, q, &frame.e1))
+                    };
+                    let e = if phi >= reach || frame.degenerate() {
+                        reach = reach.max(phi.min(frame.theta));
+                        frame.distance(d, q)
+                    } else {
+                        let (c, s) = (reach.cos(), reach.sin());
+                        for k in 0..d.get() {
+                            at_reach[k] = c * frame.e1[k] + s * frame.e2[k];
+                        }
+                        angle(d, q, &at_reach)
+                    };
+                    if e > worst {
+                        worst = e;
+                        at = j;
+                    }
+                }
+                (worst > tolerance_rad).then_some(at)
+            };
+            if let Some(j) = split {
+                keep[j] = true;
+                stack.push((j, i1));
+                stack.push((i0, j));
+            }
+        }
+        (0..n).filter(|&i| keep[i]).collect()
+    })
+}
+
 /// The largest distance (radians) of any point from the simplified line given by `kept`
 /// (ascending indices including the first and last point): each point is measured against the
 /// arc between the kept vertices that bracket it, as Douglas–Peucker does.

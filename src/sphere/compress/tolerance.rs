@@ -71,7 +71,7 @@
 //! fit costs a few dozen passes' worth of work: milliseconds to seconds for thousands of points
 //! (the bench prints the times), single-threaded.
 
-use super::simplify::douglas_peucker;
+use super::simplify::{distance_to_arc, douglas_peucker, douglas_peucker_ordered};
 use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
 };
@@ -371,7 +371,15 @@ pub fn fit_to_tolerance(
             cap,
             options,
             &degrees,
+            yardstick,
         )?;
+        // Lower shares only need more numbers: once the best curve at this share stores as
+        // much as the yardstick, no later share can win.
+        let cheapest = found
+            .iter()
+            .map(|(c, _)| stored_numbers(&c.spline, c.rule))
+            .min();
+        let last_share = cheapest.is_some_and(|s| s >= yardstick);
         if let Some((c, m)) = near {
             if closest
                 .as_ref()
@@ -402,6 +410,9 @@ pub fn fit_to_tolerance(
             {
                 best_miss = Some((c, m, tw));
             }
+        }
+        if last_share {
+            break;
         }
     }
     if chosen.is_none() {
@@ -527,6 +538,7 @@ fn candidate(
 }
 
 /// Every degree's curves at one vertex target (see the module docs), with honest errors.
+#[allow(clippy::too_many_arguments)]
 fn search(
     points: &PointSet,
     base_params: &[f64],
@@ -535,15 +547,19 @@ fn search(
     cap: usize,
     options: &ToleranceOptions,
     degrees: &[usize],
+    yardstick: usize,
 ) -> Result<Searched, SphereError> {
     let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
     let mut closest: Option<(Curve, ErrorMetrics)> = None;
     for &p in degrees {
         options.cancel.check()?;
+        // Curves storing as much as Douglas–Peucker (the yardstick) are never proven, so the
+        // uniform-knot search does not look at them either.
         let budget = found
             .iter()
             .filter(|(_, m)| m.max_error_rad <= target)
             .map(|(c, _)| stored_numbers(&c.spline, c.rule))
+            .chain((yardstick < usize::MAX).then_some(yardstick))
             .min();
         let curves = crate::with_dim!(points.dim(), |d| with_degree!(p, |g| fit_degree(
             d,
@@ -593,8 +609,11 @@ fn polyline_candidates(
     // distance can be a little more, hence the second try a hair under the tolerance.
     let dp = douglas_peucker(points, tolerance_rad);
     let dp_under = douglas_peucker(points, 0.95 * tolerance_rad);
+    // Then the chords that keep the points in order (fjords and spikes that plain
+    // Douglas–Peucker cuts across), before every point.
+    let ordered = douglas_peucker_ordered(points, 0.95 * tolerance_rad);
     let all: Vec<usize> = (0..n).collect();
-    for kept in [dp, dp_under, all] {
+    for kept in [dp, dp_under, ordered, all] {
         if let Some(c) = polyline_through(points, base_params, free, &kept) {
             out.push(c);
         }
@@ -894,7 +913,13 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     ) -> Option<Self> {
         let p = g.get();
         let factor = if p == 1 { 1.0 } else { options.seed_factor };
-        let kept = douglas_peucker(points, target * factor);
+        // The polyline seed keeps the points in order along its chords (fjords, spikes), so it
+        // meets the target once parameters are foot points, without knot insertions.
+        let kept = if p == 1 {
+            douglas_peucker_ordered(points, target)
+        } else {
+            douglas_peucker(points, target * factor)
+        };
         let last = points.len() - 1;
         let mut vertices = vec![0];
         let mut interior: Vec<f64> = Vec::with_capacity(kept.len());
@@ -1405,15 +1430,14 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             return false;
         }
         let c = r - p.div_ceil(2);
-        let knots_before = self.knots.clone();
-        let ctrl_before = self.ctrl.clone();
-        self.knots.remove(r);
-        let mut coords = self.ctrl.as_flat().to_vec();
-        coords.drain(c * dim..(c + 1) * dim);
-        self.ctrl = PointSet::from_flat_unchecked(dim, coords);
+        // Only the window changes: it alone is saved, and the removal is undone in place.
+        let knot_removed = self.knots.remove(r);
+        let removed_ctrl = self.ctrl.get(c).to_vec();
+        self.ctrl.remove(c);
         let n = n - 1;
         let c0 = (r + 1).saturating_sub(p + 2 + REMOVAL_MARGIN);
         let c1 = (r + REMOVAL_MARGIN).min(n);
+        let ctrl_before = self.ctrl.as_flat()[c0 * dim..c1 * dim].to_vec();
         let (j0, j1) = self.window_points(c0, c1);
         let params_before = self.params[j0..j1].to_vec();
         let err_before = self.err[j0..j1].to_vec();
@@ -1430,14 +1454,39 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             }
             self.weight[j0..j1].iter_mut().for_each(|w| *w = 1.0);
         }
-        if max <= target {
+        if max <= target && self.vertices_near_the_line(c0, c1, target) {
             return true;
         }
-        self.knots = knots_before;
-        self.ctrl = ctrl_before;
+        self.restore(c0, &ctrl_before);
+        self.ctrl.insert(c, &removed_ctrl);
+        self.knots.insert(r, knot_removed);
         self.params[j0..j1].copy_from_slice(&params_before);
         self.err[j0..j1].copy_from_slice(&err_before);
         false
+    }
+
+    /// For a polyline (degree 1), whether control points `c0 .. c1` lie within `target` of the
+    /// input segment at their parameter. The vertex errors bound the input's vertices against
+    /// the curve; the curve's own corners are what can stray from the input between them (a
+    /// removal that cuts across a fjord whose points all stay near the new chord, in order),
+    /// and such a curve would fail the two-way check later, after all the work. Higher degrees
+    /// are left to that check.
+    fn vertices_near_the_line(&self, c0: usize, c1: usize, target: f64) -> bool {
+        if self.p() != 1 {
+            return true;
+        }
+        let n = self.points.len();
+        (c0.max(1)..c1.min(self.n_ctrl() - 1)).all(|i| {
+            let u = self.knots[i + 1];
+            let j = self.params.partition_point(|&t| t <= u).clamp(1, n - 1) - 1;
+            let v = self.ctrl.get(i);
+            let d = distance_to_arc(v, self.points.get(j), self.points.get(j + 1));
+            // At a data parameter exactly, either neighbouring segment will do.
+            d <= target
+                || (j > 0
+                    && self.params[j] == u
+                    && distance_to_arc(v, self.points.get(j - 1), self.points.get(j)) <= target)
+        })
     }
 
     /// The same curve family with uniform knots (none stored). For degree 1 the polyline is
@@ -1495,8 +1544,18 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
 /// `P ← exp_P(v)` with `v` projected onto the tangent plane at P.
 fn move_along_geodesic<D: Dim>(d: D, pt: &mut [f64], v: &[f64]) {
     let along = dot(d, pt, v);
-    let t: Vec<f64> = (0..d.get()).map(|x| v[x] - along * pt[x]).collect();
-    exp_in_place(d, pt, &t);
+    let mut stack = [0.0; 16];
+    let mut heap = Vec::new();
+    let t: &mut [f64] = if d.get() <= 16 {
+        &mut stack[..d.get()]
+    } else {
+        heap.resize(d.get(), 0.0);
+        &mut heap
+    };
+    for x in 0..d.get() {
+        t[x] = v[x] - along * pt[x];
+    }
+    exp_in_place(d, pt, t);
 }
 
 #[cfg(test)]

@@ -513,6 +513,18 @@ impl PointSet {
         &mut self.coords[i * self.dim..(i + 1) * self.dim]
     }
 
+    /// Removes point `i` in place (no reallocation): the fitter's knot removals.
+    pub(crate) fn remove(&mut self, i: usize) {
+        self.coords.drain(i * self.dim..(i + 1) * self.dim);
+    }
+
+    /// Inserts `row` (of length `dim`) before point `i`, in place.
+    pub(crate) fn insert(&mut self, i: usize, row: &[f64]) {
+        debug_assert_eq!(row.len(), self.dim);
+        let at = i * self.dim;
+        self.coords.splice(at..at, row.iter().copied());
+    }
+
     /// All coordinates, point after point.
     pub fn as_flat(&self) -> &[f64] {
         &self.coords
