@@ -358,12 +358,11 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
         s.push(*t, p, frame.distance_dyn(p));
     }
     // Interior break points start the subdivision.
-    let interior: Vec<f64> = inp
-        .breaks
-        .iter()
-        .copied()
-        .filter(|&u| u > inp.ta && u < inp.tb)
-        .collect();
+    // The breaks are sorted: the piece's own are found by bisection, not by a scan of all of
+    // them (which made a check quadratic in the number of knots).
+    let first = inp.breaks.partition_point(|&u| u <= inp.ta);
+    let last = first + inp.breaks[first..].partition_point(|&u| u < inp.tb);
+    let interior: Vec<f64> = inp.breaks[first..last].to_vec();
     let mut chain = vec![ia];
     if !interior.is_empty() {
         evaluations += interior.len();

@@ -722,6 +722,10 @@ const REWEIGHT_WITHIN: f64 = 1.5;
 /// Extra control points freed on each side of a removed knot's p + 1 affected ones.
 const REMOVAL_MARGIN: usize = 1;
 
+/// See [`Fitter::hopeless_removal`]: a point this many targets from the chord that would
+/// replace a removed vertex's two segments is not brought back by the window's refit.
+const HOPELESS_REMOVAL: f64 = 3.0;
+
 /// Removal sweeps over all knots (each sweep stops early when nothing could be removed).
 const REMOVAL_SWEEPS: usize = 3;
 
@@ -1405,15 +1409,31 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
 
     /// Greedy knot removal: each interior knot in turn is removed, the p + 1 + 2·margin control
     /// points around it refitted, and the removal kept when the tolerance still holds.
+    ///
+    /// A removal that failed is tried again in a later sweep only when a removal since then
+    /// changed what it reads (the control points, parameters and errors within reach of its
+    /// window): the refit is deterministic, so an unchanged neighbourhood fails again. This
+    /// skips most of the second and third sweeps without changing the result.
     fn reduce(&mut self, target: f64) {
         let p = self.p();
+        // Per knot: its removal failed and nothing within its reach changed since.
+        let mut clean = vec![false; self.knots.len()];
         for _ in 0..REMOVAL_SWEEPS {
             let mut removed = 0;
             let mut r = p + 1;
             while r < self.n_ctrl() && !crate::sphere::cancel::cancelled() {
-                if self.try_remove(r, target) {
+                if clean[r] {
+                    r += 1;
+                } else if let Some((c0, c1)) = self.try_remove(r, target) {
                     removed += 1;
+                    clean.remove(r);
+                    // Windows that read control points c0 .. c1 (or their points) belong to
+                    // knots from about c0 − p − margin to c1 + 2p + margin.
+                    let lo = c0.saturating_sub(p + REMOVAL_MARGIN + 2);
+                    let hi = (c1 + 2 * p + REMOVAL_MARGIN + 3).min(clean.len());
+                    clean[lo..hi].iter_mut().for_each(|c| *c = false);
                 } else {
+                    clean[r] = true;
                     r += 1;
                 }
             }
@@ -1423,13 +1443,17 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         }
     }
 
-    fn try_remove(&mut self, r: usize, target: f64) -> bool {
+    /// Tries to remove knot `r`: the refitted window of control points when kept.
+    fn try_remove(&mut self, r: usize, target: f64) -> Option<(usize, usize)> {
         let (p, dim) = (self.p(), self.d.get());
         let n = self.n_ctrl();
         if n <= p + 1 {
-            return false;
+            return None;
         }
         let c = r - p.div_ceil(2);
+        if p == 1 && self.hopeless_removal(c, target) {
+            return None;
+        }
         // Only the window changes: it alone is saved, and the removal is undone in place.
         let knot_removed = self.knots.remove(r);
         let removed_ctrl = self.ctrl.get(c).to_vec();
@@ -1455,14 +1479,33 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             self.weight[j0..j1].iter_mut().for_each(|w| *w = 1.0);
         }
         if max <= target && self.vertices_near_the_line(c0, c1, target) {
-            return true;
+            return Some((c0, c1));
         }
         self.restore(c0, &ctrl_before);
         self.ctrl.insert(c, &removed_ctrl);
         self.knots.insert(r, knot_removed);
         self.params[j0..j1].copy_from_slice(&params_before);
         self.err[j0..j1].copy_from_slice(&err_before);
-        false
+        None
+    }
+
+    /// For a polyline (degree 1): removing vertex `c` replaces its two segments by the chord
+    /// between its neighbours; when a data point of those segments lies farther than
+    /// [`HOPELESS_REMOVAL`] times the target from that chord, the local refit (which moves the
+    /// neighbours a little) cannot bring it back, and trying costs a Gauss–Newton refit.
+    fn hopeless_removal(&self, c: usize, target: f64) -> bool {
+        let n = self.n_ctrl();
+        if c == 0 || c + 1 >= n {
+            return false;
+        }
+        // Degree 1: control point i sits at knot i + 1; the two spans around c run from
+        // knot c to knot c + 2.
+        let (lo, hi) = (self.knots[c], self.knots[c + 2]);
+        let j0 = self.params.partition_point(|&t| t < lo);
+        let j1 = self.params.partition_point(|&t| t <= hi);
+        let (a, b) = (self.ctrl.get(c - 1), self.ctrl.get(c + 1));
+        let limit = HOPELESS_REMOVAL * target;
+        (j0..j1).any(|j| distance_to_arc(self.points.get(j), a, b) > limit)
     }
 
     /// For a polyline (degree 1), whether control points `c0 .. c1` lie within `target` of the
