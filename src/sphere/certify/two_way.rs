@@ -773,7 +773,7 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(24))]
-    
+
     #[test]
         fn certified_bound_is_above_brute_force_and_close(
             p in 1usize..=3,

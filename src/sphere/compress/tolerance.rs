@@ -990,6 +990,12 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         self.g.get()
     }
 
+    /// The line ends where it starts (a ring given as a line).
+    fn closed(&self) -> bool {
+        let n = self.points.len();
+        n > 2 && self.points.get(0) == self.points.get(n - 1)
+    }
+
     fn n_ctrl(&self) -> usize {
         self.ctrl.len()
     }
@@ -1185,6 +1191,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         target: f64,
         give_up: f64,
     ) -> f64 {
+        // A closed line keeps its seam: the end control points stay on its first (= last)
+        // point, so the curve is closed as fitted and closing it later moves nothing.
+        let (c0, c1) = if self.closed() {
+            (c0.max(1), c1.min(self.n_ctrl() - 1))
+        } else {
+            (c0, c1)
+        };
+        if c0 >= c1 {
+            return self.err[..].iter().fold(0.0, |a: f64, &b| a.max(b));
+        }
         let (j0, j1) = self.window_points(c0, c1);
         if j0 >= j1 {
             return 0.0;
