@@ -17,9 +17,12 @@
 //!   and 1) between Gauss–Newton steps on the control points. The curve then only has to pass
 //!   *near* each point, not near it at a prescribed speed. Given parameters (timestamps) are
 //!   never moved.
-//! * **Degree 1 starts from Douglas–Peucker.** The spherical Douglas–Peucker polyline at the
-//!   tolerance ([`super::simplify`]) is a degree-1 spline whose foot-point errors are exactly
-//!   Douglas–Peucker's cross-track errors, so it meets the tolerance before any fitting.
+//! * **Degree 1 starts from the ordered Douglas–Peucker.** The spherical Douglas–Peucker
+//!   polyline that keeps the points in order along its chords
+//!   ([`super::simplify::douglas_peucker_ordered`]) is a degree-1 spline whose foot-point errors
+//!   (kept non-decreasing) are within the tolerance before any fitting. Plain Douglas–Peucker
+//!   cuts across fjords and spikes whose points then run backwards along the chord; seeded
+//!   with it, a coastline spent its time inserting knots back.
 //! * **Greedy knot removal with local refits.** Each interior knot in turn is removed, the
 //!   p + 1 affected control points and one more on each side are refitted (Gauss–Newton with
 //!   Levenberg–Marquardt damping on that window, the rest of the curve untouched, with foot-point
@@ -48,28 +51,32 @@
 //!
 //! | variant | border 10m | GPS tracks | smooth track | flight |
 //! |---|---:|---:|---:|---:|
-//! | all ideas (default) | 0.87 | 0.67 | 0.29 | 0.09 |
-//! | cubic only | 1.26 | 1.12 (1 tolerance missed) | 0.30 | 0.09 |
-//! | degree 1 only | 0.87 | 0.67 | 0.66 | 0.71 |
-//! | no knot removal | 1.00 | 1.00 | 0.30 | 0.09 |
-//! | no Lawson reweighting | 0.90 | 0.75 | 0.30 | 0.09 |
-//! | no parameter correction | 1.38 | 1.12 | 0.39 | 0.19 |
-//! | no knots by rule (all stored) | 1.25 | 0.94 | 0.34 | 0.18 |
-//! | plus stored-knot fits of degree 2, 3 (DP-seeded) | 0.87 | 0.67 | 0.29 | 0.09 |
+//! | all ideas (default) | 0.96 | 0.88 | 0.30 | 0.09 |
+//! | cubic only | 1.00 | 1.02 | 0.32 | 0.09 |
+//! | degree 1 only | 0.96 | 0.88 | 0.74 | 0.81 |
+//! | no knot removal | 1.00 | 1.02 | 0.32 | 0.09 |
+//! | no Lawson reweighting | 0.97 | 0.92 | 0.30 | 0.09 |
+//! | no parameter correction | 1.43 | 1.28 (3 tolerances missed) | 0.38 | 0.20 |
+//! | no knots by rule (all stored) | 1.00 | 1.02 | 1.01 | 1.00 |
+//! | plus stored-knot fits of degree 2, 3 (DP-seeded) | 0.96 | 0.88 | 0.30 | 0.09 |
 //!
 //! Kept: everything in the default. Parameter correction and unstored knots pay most; removal
 //! with reweighting is what beats Douglas–Peucker on real lines (borders and GPS tracks are
 //! best served by a free-vertex polyline); degree 3 on uniform knots wins on smooth tracks.
 //! Dropped from the default (`adaptive_knots: false`): DP-seeded stored-knot fits of degree >= 2
-//! with free parameters never won a case, and cost 6x the time (45 s against 7.5 s for the whole
-//! bench); the seed factor (1, 4 or 16) changed no total by more than 2 numbers. Not done:
+//! with free parameters save 6 numbers (0.2 %) on the GPS tracks and nothing elsewhere, at 4x
+//! the time (23.5 s against 5.6 s for the ablation run); the seed factor (1, 4 or 16) changed no total by more than 2 numbers. Not done:
 //! knots of multiplicity p at sharp corners and curvature-guided knots (the winning curves on
 //! cornered data are degree 1, where every knot is already a corner).
 //!
 //! # Cost
 //! O(n) per Gauss–Newton pass; removals refit windows of about (p + 3) control points, so a
 //! fit costs a few dozen passes' worth of work: milliseconds to seconds for thousands of points
-//! (the bench prints the times), single-threaded.
+//! (the bench prints the times), single-threaded. What keeps it linear: a removal saves and
+//! undoes only its window; a polyline removal with a point [`HOPELESS_REMOVAL`] tolerances from
+//! the replacing chord is not refitted; a removal that failed is retried in a later sweep only
+//! where a removal since changed its neighbourhood. `scripts/speed_bench.sh` measures whole
+//! datasets against mapshaper.
 
 use super::simplify::{distance_to_arc, douglas_peucker, douglas_peucker_ordered};
 use crate::sphere::certify::two_way::{
