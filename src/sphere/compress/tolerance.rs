@@ -73,7 +73,7 @@
 //! O(n) per Gauss–Newton pass; removals refit windows of about (p + 3) control points, so a
 //! fit costs a few dozen passes' worth of work: milliseconds to seconds for thousands of points
 //! (the bench prints the times), single-threaded. What keeps it linear: a removal saves and
-//! undoes only its window; a polyline removal with a point [`HOPELESS_REMOVAL`] tolerances from
+//! undoes only its window; a polyline removal with a point three tolerances from
 //! the replacing chord is not refitted; a removal that failed is retried in a later sweep only
 //! where a removal since changed its neighbourhood. `scripts/speed_bench.sh` measures whole
 //! datasets against mapshaper.
