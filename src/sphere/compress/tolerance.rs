@@ -71,7 +71,7 @@
 //! fit costs a few dozen passes' worth of work: milliseconds to seconds for thousands of points
 //! (the bench prints the times), single-threaded.
 
-use super::simplify::douglas_peucker;
+use super::simplify::{douglas_peucker, synchronized_douglas_peucker};
 use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
 };
@@ -591,15 +591,24 @@ fn polyline_candidates(
     let mut out = Vec::new();
     // Douglas–Peucker bounds the vertices' distance to the kept chords; the ordered two-way
     // distance can be a little more, hence the second try a hair under the tolerance.
-    let dp = douglas_peucker(points, tolerance_rad);
-    let dp_under = douglas_peucker(points, 0.95 * tolerance_rad);
+    // With given parameters (times) the vertex error is the synchronized distance, so the
+    // time-aware Douglas–Peucker (TD-TR) chooses the vertices, and the polyline through every
+    // point (error 0 at every parameter) is the last resort.
+    let (dp, dp_under) = if free {
+        (
+            douglas_peucker(points, tolerance_rad),
+            douglas_peucker(points, 0.95 * tolerance_rad),
+        )
+    } else {
+        (
+            synchronized_douglas_peucker(points, base_params, tolerance_rad),
+            synchronized_douglas_peucker(points, base_params, 0.95 * tolerance_rad),
+        )
+    };
     let all: Vec<usize> = (0..n).collect();
     for kept in [dp, dp_under, all] {
         if let Some(c) = polyline_through(points, base_params, free, &kept) {
             out.push(c);
-        }
-        if !free {
-            break;
         }
     }
     out
