@@ -175,8 +175,9 @@ pub(crate) struct FitOptionArgs {
     /// Data parameters: chord (cumulative geodesic distance), centripetal, uniform, or time
     /// (position as a function of each position's time; with --tolerance-m the bound is the
     /// synchronized distance)
-    #[arg(long, value_name = "METHOD", default_value = "chord")]
-    parameterization: ParameterizationArg,
+    /// [default: chord; time with --time-property or --spacing-s]
+    #[arg(long, value_name = "METHOD")]
+    parameterization: Option<ParameterizationArg>,
     /// With --parameterization time: the feature property holding one time per position
     /// (RFC 3339 strings or unix seconds) [default: the first of coordTimes, times, timestamps
     /// present, else the 4th coordinate of each position]
@@ -308,7 +309,7 @@ pub(crate) fn fit(a: FitArgs) -> Result<(), Failure> {
         "fit",
         a.fit.operation(),
         a.fit.limits(),
-        a.fit.time(),
+        a.fit.time(a.output.spacing_s.is_some())?,
         &a.output,
         a.batch,
     )
@@ -324,8 +325,8 @@ impl FitOptionArgs {
             knots: self.knots,
             iterations: self.iterations,
             parameterization: match self.parameterization {
-                ParameterizationArg::Shape(p) => p,
-                ParameterizationArg::Time => FitOptions::faithful().parameterization,
+                Some(ParameterizationArg::Shape(p)) => p,
+                _ => FitOptions::faithful().parameterization,
             },
             solver: self.solver,
             parameter_correction: self.parameter_correction,
@@ -340,17 +341,32 @@ impl FitOptionArgs {
         }
     }
 
-    /// Fitting in time (`--parameterization time`, `--time-property`).
-    fn time(&self) -> TimeOptions {
-        TimeOptions {
-            fit_in_time: (self.parameterization == ParameterizationArg::Time).then(|| match &self
-                .time_property
-            {
+    /// Fitting in time (`--parameterization time`, implied by `--time-property` and
+    /// `--spacing-s`), as the service reads its query.
+    fn time(&self, spacing_s: bool) -> Result<TimeOptions, Failure> {
+        let implied = if self.time_property.is_some() {
+            Some("--time-property")
+        } else if spacing_s {
+            Some("--spacing-s")
+        } else {
+            None
+        };
+        let in_time = match (self.parameterization, implied) {
+            (Some(ParameterizationArg::Time), _) | (None, Some(_)) => true,
+            (Some(ParameterizationArg::Shape(_)), Some(k)) => {
+                return Err(Failure::input(format!(
+                    "{k} is for a fit in time: it excludes --parameterization other than time"
+                )))
+            }
+            _ => false,
+        };
+        Ok(TimeOptions {
+            fit_in_time: in_time.then(|| match &self.time_property {
                 Some(n) => TimeSource::Property(n.clone()),
                 None => TimeSource::Auto,
             }),
             at_unix_s: None,
-        }
+        })
     }
 
     /// The limits set by the fit's flags (`--max-samples` is an output option).
@@ -797,7 +813,12 @@ mod tests {
         let cmd = Cmd::try_parse_from(std::iter::once("x").chain(args.iter().copied()))
             .map_err(Failure::input)?;
         match cmd {
-            Cmd::Fit(a) => job(a.fit.operation(), a.fit.limits(), a.fit.time(), &a.output),
+            Cmd::Fit(a) => job(
+                a.fit.operation(),
+                a.fit.limits(),
+                a.fit.time(a.output.spacing_s.is_some())?,
+                &a.output,
+            ),
             Cmd::Interpolate(a) => job(
                 Operation::Interpolate(InterpolateSettings {
                     beta1: a.shape.beta1,

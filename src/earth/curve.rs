@@ -496,7 +496,8 @@ fn prepare_line(
 /// With `time`, the line is fitted as position against time: each position's parameter is its
 /// time mapped to [0, 1] (never moved), so the error reported at a position is its
 /// synchronized distance; long segments get no points inserted (nothing says where the track
-/// was between its times), and a line that returns to its start stays open.
+/// was between its times), and a line that returns to its start stays open. A curve in time
+/// that strays from the line ([`TIME_STRAY_SHARE`]) is refitted with GLS-PIA.
 ///
 /// # Errors
 /// Invalid positions or times, an open or short ring, fewer than 2 distinct positions,
@@ -547,17 +548,19 @@ pub fn fit_line(
     } else {
         (points.clone(), (0..m).collect())
     };
-    let run = |n_ctrl: usize| {
-        let opts = options
+    let run_with = |n_ctrl: usize, solver: crate::sphere::Solver| {
+        let mut opts = options
             .clone()
             .with_degree(degree)
             .with_control_points(n_ctrl);
+        opts.solver = solver;
         if closed {
             fit_closed(&fit_points, &opts)
         } else {
             fit(&fit_points, given, &opts)
         }
     };
+    let run = |n_ctrl: usize| run_with(n_ctrl, options.solver);
     let mut r = run(control_points).map_err(fit_err)?;
     if options.control_points.is_none() {
         // The count from the data: a quarter of the positions, or half of them when a quarter
@@ -573,24 +576,52 @@ pub fn fit_line(
             }
         }
     }
-    let r_max_rad = r.metrics.max_error_rad;
-    let params: Vec<f64> = at.iter().map(|&k| r.parameters[k]).collect();
-    let (spline, iterations, converged) = (r.spline, r.iterations, r.converged);
-    let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
-    // The curve as returned judged against the whole line, both ways (certified).
-    let tw = two_way_distance(
-        &spline,
-        &points,
-        &params,
-        &TwoWayOptions::default()
-            .with_precision_rad(
-                (REPORT_TWO_WAY_PRECISION * r_max_rad)
-                    .max(REPORT_TWO_WAY_LENGTH_SHARE * polyline_length(&points))
-                    .max(m_to_rad(0.5)),
-            )
-            .with_max_evaluations(REPORT_TWO_WAY_EVALUATIONS + 64 * points.len()),
-    )
-    .map_err(fit_err)?;
+    // Rounded, and judged against the whole line both ways (certified).
+    let measured = |r: crate::sphere::FitReport| -> Result<_, EarthError> {
+        let r_max_rad = r.metrics.max_error_rad;
+        let params: Vec<f64> = at.iter().map(|&k| r.parameters[k]).collect();
+        let n_ctrl = r.spline.control_points().len();
+        let (spline, control_ll) = round_spline(&r.spline, output.precision).map_err(fit_err)?;
+        let tw = two_way_distance(
+            &spline,
+            &points,
+            &params,
+            &TwoWayOptions::default()
+                .with_precision_rad(
+                    (REPORT_TWO_WAY_PRECISION * r_max_rad)
+                        .max(REPORT_TWO_WAY_LENGTH_SHARE * polyline_length(&points))
+                        .max(m_to_rad(0.5)),
+                )
+                .with_max_evaluations(REPORT_TWO_WAY_EVALUATIONS + 64 * points.len()),
+        )
+        .map_err(fit_err)?;
+        Ok((
+            spline,
+            control_ll,
+            params,
+            r.iterations,
+            r.converged,
+            tw,
+            r_max_rad,
+            n_ctrl,
+        ))
+    };
+    let mut m_best = measured(r)?;
+    // In time, spans between positions far apart in time have little data, and Gauss-Newton's
+    // least squares can send the curve far from the line there while every position stays
+    // close (a fixture track went 160 km off). When the curve strays from the line more than
+    // TIME_STRAY_SHARE times its max error, GLS-PIA (which moves control points only towards
+    // the data) is tried with the same control points, and the curve nearer the line kept.
+    if timed.is_some()
+        && options.solver != crate::sphere::Solver::GlsPia
+        && m_best.5.upper_rad > TIME_STRAY_SHARE * m_best.6.max(m_to_rad(1.0))
+    {
+        let alt = measured(run_with(m_best.7, crate::sphere::Solver::GlsPia).map_err(fit_err)?)?;
+        if alt.5.upper_rad < m_best.5.upper_rad {
+            m_best = alt;
+        }
+    }
+    let (spline, control_ll, params, iterations, converged, tw, _, _) = m_best;
     let input_len = polyline_length(&points);
     let (mut out, _) = finish_fit(
         Fitted {
@@ -935,6 +966,10 @@ pub fn fit_line_to_tolerance(
         return Ok(out);
     }
 }
+
+/// A fit in time whose two-way distance exceeds this many times its max error (at least
+/// 1 m) is refitted with GLS-PIA, and the curve nearer the line kept (see [`fit_line`]).
+pub const TIME_STRAY_SHARE: f64 = 4.0;
 
 /// Precision of the reported two-way distance, as a share of the tolerance.
 const REPORT_TWO_WAY_PRECISION: f64 = 0.01;

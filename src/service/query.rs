@@ -206,23 +206,31 @@ fn precision(p: &Params) -> Result<u32, ApiError> {
     })
 }
 
-/// `parameterization=time` (with `time_property`) and `at`, and the parameters left for the
-/// fit options.
-fn time_options(p: &Params) -> Result<(TimeOptions, Params), ApiError> {
+/// `parameterization=time` (with `time_property`; either of those or `spacing_s` on a fit
+/// implies it) and `at`, and the parameters left for the fit options.
+fn time_options(p: &Params, fit: bool) -> Result<(TimeOptions, Params), ApiError> {
     let mut t = TimeOptions::default();
-    let in_time = p.raw("parameterization") == Some("time");
+    // `time_property` and (on /v1/fit) `spacing_s` mean a fit in time: they imply
+    // parameterization=time, and conflict with any other.
+    let implied = ["time_property", "spacing_s"]
+        .into_iter()
+        .find(|k| p.has(k) && (*k == "time_property" || fit));
+    let in_time = match (p.raw("parameterization"), implied) {
+        (Some("time"), _) | (None, Some(_)) => true,
+        (Some(other), Some(k)) => {
+            return Err(ApiError::unprocessable(
+                "conflicting-options",
+                format!("{k} is for a fit in time: it excludes parameterization={other}"),
+            )
+            .param(k))
+        }
+        _ => false,
+    };
     if in_time {
         t.fit_in_time = Some(match p.raw("time_property") {
             Some(name) => TimeSource::Property(name.to_string()),
             None => TimeSource::Auto,
         });
-    } else if p.has("time_property") {
-        return Err(ApiError::unprocessable(
-            "invalid-option",
-            "time_property names where the times are for parameterization=time: give that too"
-                .to_string(),
-        )
-        .param("time_property"));
     }
     if let Some(v) = p.raw("at") {
         let at = crate::earth::time::parse_time_list(v).map_err(|m| {
@@ -323,7 +331,7 @@ pub fn geo_job(
         GeoEndpoint::Evaluate => (EVALUATE_PARAMS, Some(Operation::Evaluate)),
     };
     let p = Params::new(pairs, allowed)?;
-    let (time, p) = time_options(&p)?;
+    let (time, p) = time_options(&p, endpoint == GeoEndpoint::Fit)?;
     let operation = match (endpoint, operation) {
         (_, Some(op)) => op,
         (GeoEndpoint::Fit, None) => match tolerance(&p, "tolerance_m")? {
