@@ -391,8 +391,7 @@ fn process_feature_at(
     check_bbox(map, pointer)?;
     let result = match &job.operation {
         Operation::Fit(_) | Operation::FitToTolerance { .. } | Operation::Interpolate(_) => {
-            let times = feature_times(map, pointer, job)?;
-            curves_of_geometry(geometry, geometry_pointer, job, &times)?
+            curves_of_geometry(geometry, geometry_pointer, job, (map, pointer))?
         }
         Operation::Evaluate => curves_of_fit(map, pointer, job)?,
     };
@@ -559,7 +558,7 @@ fn curves_of_geometry(
     geometry: &Value,
     ptr: &str,
     job: &Job,
-    times: &FeatureTimes<'_>,
+    (feature, feature_pointer): (&Map<String, Value>, &str),
 ) -> Result<Made, EarthError> {
     if geometry.is_null() {
         return Ok(None);
@@ -597,6 +596,8 @@ fn curves_of_geometry(
     let coords = gmap
         .get("coordinates")
         .ok_or_else(|| invalid(ptr, format!("a {kind} needs \"coordinates\"")))?;
+    // Only a feature with lines needs times: others pass through whatever their properties.
+    let times = &feature_times(feature, feature_pointer, job)?;
     if !matches!(times, FeatureTimes::None) && kind.ends_with("Polygon") {
         return Err(EarthError::new(
             format!("{ptr}/type"),
