@@ -174,8 +174,7 @@ pub(crate) struct FitOptionArgs {
     iterations: usize,
     /// Data parameters: chord (cumulative geodesic distance), centripetal, uniform, or time
     /// (position as a function of each position's time; with --tolerance-m the bound is the
-    /// synchronized distance)
-    /// [default: chord; time with --time-property or --spacing-s]
+    /// synchronized distance; implied by --time-property and --spacing-s) [default: chord]
     #[arg(long, value_name = "METHOD")]
     parameterization: Option<ParameterizationArg>,
     /// With --parameterization time: the feature property holding one time per position
