@@ -912,6 +912,39 @@ mod tests {
                 &[("beta1", "2"), ("beta2", "0.5"), ("samples", "40")]
             )
         );
+        for (cli, service) in [
+            (
+                &["fit", "--parameterization", "time", "--tolerance-m", "10"][..],
+                &[("parameterization", "time"), ("tolerance_m", "10")][..],
+            ),
+            (
+                &["fit", "--time-property", "coordTimes"][..],
+                &[("time_property", "coordTimes")][..],
+            ),
+            (
+                &["fit", "--spacing-s", "30"][..],
+                &[("spacing_s", "30")][..],
+            ),
+            (
+                &["evaluate", "--at", "1,2010-10-03T09:36:30Z"][..],
+                &[("at", "1,2010-10-03T09:36:30Z")][..],
+            ),
+            (
+                &["evaluate", "--spacing-s", "60"][..],
+                &[("spacing_s", "60")][..],
+            ),
+        ] {
+            let endpoint = if cli[0] == "fit" {
+                GeoEndpoint::Fit
+            } else {
+                GeoEndpoint::Evaluate
+            };
+            assert_eq!(
+                cli_job(cli).unwrap(),
+                service_job(endpoint, service),
+                "{cli:?}"
+            );
+        }
     }
 
     #[test]
@@ -925,6 +958,9 @@ mod tests {
             (&["fit", "--tolerance-m", "0"][..], "--tolerance-m"),
             (&["interpolate", "--beta1", "0"][..], "--beta1"),
             (&["interpolate", "--beta2", "-1"][..], "--beta2"),
+            (&["fit", "--spacing-s", "0"][..], "--spacing-s"),
+            (&["interpolate", "--spacing-s", "10"][..], "--spacing-s"),
+            (&["evaluate", "--at", "1,2", "--samples", "5"][..], "--at"),
         ] {
             let e = cli_job(args).unwrap_err();
             assert_eq!(e.status, 2, "{args:?}");

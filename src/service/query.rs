@@ -454,4 +454,65 @@ mod tests {
         assert_eq!(job.operation, Operation::Fit(FitOptions::faithful()));
         assert_eq!(job.output, OutputOptions::default());
     }
+
+    #[test]
+    fn time_options_are_read_and_implied() {
+        let l = Limits::default();
+        let job = geo_job(pairs(&[("parameterization", "time")]), GeoEndpoint::Fit, &l).unwrap();
+        assert_eq!(job.time.fit_in_time, Some(TimeSource::Auto));
+        // parameterization=time is not a math-core parameterisation: the fit options keep theirs.
+        assert_eq!(
+            job.operation.fit_options().unwrap().parameterization,
+            FitOptions::faithful().parameterization
+        );
+        let job = geo_job(pairs(&[("time_property", "when")]), GeoEndpoint::Fit, &l).unwrap();
+        assert_eq!(
+            job.time.fit_in_time,
+            Some(TimeSource::Property("when".into()))
+        );
+        let job = geo_job(pairs(&[("spacing_s", "30")]), GeoEndpoint::Fit, &l).unwrap();
+        assert_eq!(
+            (job.time.fit_in_time, job.output.sampling),
+            (Some(TimeSource::Auto), Sampling::SpacingS(30.0))
+        );
+        let e = geo_job(
+            pairs(&[("parameterization", "chord"), ("spacing_s", "30")]),
+            GeoEndpoint::Fit,
+            &l,
+        )
+        .unwrap_err();
+        assert_eq!(
+            (e.status.as_u16(), e.parameter.as_deref()),
+            (422, Some("spacing_s"))
+        );
+        let e = geo_job(
+            pairs(&[("spacing_s", "30"), ("samples", "10")]),
+            GeoEndpoint::Evaluate,
+            &l,
+        )
+        .unwrap_err();
+        assert_eq!(e.status.as_u16(), 422);
+        let job = geo_job(
+            pairs(&[("at", "1,2010-10-03T09:36:30Z")]),
+            GeoEndpoint::Evaluate,
+            &l,
+        )
+        .unwrap();
+        assert_eq!(job.time.at_unix_s, Some(vec![1.0, 1286098590.0]));
+        let e = geo_job(pairs(&[("at", "1,,2")]), GeoEndpoint::Evaluate, &l).unwrap_err();
+        assert_eq!(
+            (e.status.as_u16(), e.parameter.as_deref()),
+            (400, Some("at"))
+        );
+        let e = geo_job(pairs(&[("spacing_s", "0")]), GeoEndpoint::Evaluate, &l).unwrap_err();
+        assert_eq!(
+            (e.status.as_u16(), e.parameter.as_deref()),
+            (422, Some("spacing_s"))
+        );
+        let e = geo_job(pairs(&[("at", "1")]), GeoEndpoint::Fit, &l).unwrap_err();
+        assert_eq!(e.status.as_u16(), 400, "at is not a fit parameter");
+        // The S^n fit knows no time.
+        let p = Params::new(pairs(&[("parameterization", "time")]), SPHERE_FIT_PARAMS).unwrap();
+        assert!(fit_options(&p, FitOptions::default()).is_err());
+    }
 }
