@@ -1273,6 +1273,14 @@ pub fn evaluate_spline_document(
         times: None,
         time_doc: None,
     }];
+    if job.time.at_unix_s.is_some() {
+        return Err(EarthError::new(
+            pointer,
+            Problem::InvalidSpline(
+                "a bare spline document has no times: evaluate the Feature of a fit made with parameterization=time to evaluate at times".into(),
+            ),
+        ));
+    }
     let evaluate = Job {
         operation: Operation::Evaluate,
         ..job.clone()

@@ -8,6 +8,8 @@
 //! * [`sampling`]: dense output of a curve (`samples`, `spacing_m`, or automatic).
 //! * [`curve`]: one line or ring: positions parsed and checked, repeats dropped, fitted.
 //! * [`features`]: GeoJSON documents walked feature by feature ([`process_feature`]).
+//! * [`time`]: tracks in time: times read from the properties or the 4th coordinate and
+//!   checked, the map between times and the curve parameter, speed and heading.
 //!
 //! # What happens to a GeoJSON document
 //! * LineString and each part of a MultiLineString is fitted on its own; each Polygon and
@@ -24,6 +26,11 @@
 //!   copy) still counts in the metrics and in `input_points`. When fewer distinct positions
 //!   remain than `degree + 1`, the degree is lowered to `distinct - 1`; one distinct position
 //!   is an error.
+//! * With [`TimeOptions::fit_in_time`] (`parameterization=time`) a line is fitted as position
+//!   against time: each position's parameter is its time mapped to [0, 1] (never moved), so its
+//!   error is the synchronized distance; only records repeated exactly (same time, same
+//!   position) are dropped, a line ending where it starts stays open, and the dense output
+//!   carries its times where the input had them ([`time`]).
 //! * Errors are parametric geodesic distances in metres (METHOD.md): the distance from each
 //!   input point to the curve at that point's parameter, measured with the spline as returned
 //!   (control points rounded to `precision`).

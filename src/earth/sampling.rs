@@ -151,7 +151,7 @@ pub fn sample(
 /// made.
 ///
 /// # Errors
-/// [`Problem::TooManySamples`].
+/// [`Problem::InvalidOption`] naming `spacing_s`.
 pub fn time_parameters(
     duration_s: f64,
     spacing_s: f64,
@@ -162,13 +162,12 @@ pub fn time_parameters(
     if needed_f.is_nan() || needed_f > max_samples.max(2) as f64 {
         return Err(EarthError::new(
             "",
-            Problem::TooManySamples {
-                needed: if needed_f.is_finite() {
-                    needed_f.min(usize::MAX as f64) as usize
-                } else {
-                    usize::MAX
-                },
-                max: max_samples,
+            Problem::InvalidOption {
+                option: "spacing_s",
+                message: format!(
+                    "{} output points needed for {duration_s} s, more than the limit of {max_samples} per line: use a larger spacing_s",
+                    if needed_f.is_finite() { format!("{needed_f}") } else { "too many".into() }
+                ),
             },
         ));
     }

@@ -548,6 +548,21 @@ fn bad_time_arrays_are_422_with_a_pointer() {
     );
     let (status, _, v) = post("/v1/evaluate?at=1&samples=10", &fitted);
     assert_eq!((status, v["parameter"].as_str()), (422, Some("at")));
+    // Output over the limit is refused before it is made, naming spacing_s.
+    let (status, _, v) = post("/v1/fit?parameterization=time&spacing_s=0.001", &track);
+    assert_eq!(
+        (status, v["parameter"].as_str()),
+        (422, Some("spacing_s")),
+        "{v}"
+    );
+    // A bare spline document has no times.
+    let bare = json!({"crs": "lonlat", "degree": 1, "knots": [0, 0, 1, 1], "control_points": [[0, 0], [1, 0]]});
+    let (status, _, v) = post("/v1/evaluate?at=1", &bare);
+    assert_eq!(
+        (status, v["type"].as_str()),
+        (422, Some("urn:spherefit:problem:invalid-spline")),
+        "{v}"
+    );
     let (status, _, v) = post("/v1/evaluate?spacing_s=10", &plain);
     assert_eq!(
         (status, v["parameter"].as_str()),
