@@ -1226,7 +1226,11 @@ fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> Va
         }
         out.insert(
             "parameterization".into(),
-            serde_json::to_value(o.parameterization).expect("enum serialises"),
+            if job.time.fit_in_time.is_some() {
+                json!("time")
+            } else {
+                serde_json::to_value(o.parameterization).expect("enum serialises")
+            },
         );
     }
     out.insert(

@@ -405,6 +405,43 @@ fn times_round_trip_through_the_dense_output() {
 }
 
 #[test]
+fn a_multilinestring_keeps_one_time_array_per_line() {
+    let (track, _, _, t0, _) = synthetic_track();
+    let coords = track["geometry"]["coordinates"].as_array().unwrap();
+    let times = track["properties"]["coordTimes"].as_array().unwrap();
+    let multi = json!({"type": "Feature", "properties": {"coordTimes": [times[..60], times[61..]]},
+        "geometry": {"type": "MultiLineString", "coordinates": [coords[..60], coords[61..]]}});
+    let out = post_ok("/v1/fit?parameterization=time&spacing_s=60", &multi);
+    let f = &out["features"][0];
+    assert_eq!(f["properties"]["fit"]["parameterization"], "time");
+    let parts = f["properties"]["fit"]["parts"].as_array().unwrap();
+    assert_eq!(parts.len(), 2);
+    let t = f["properties"]["coordTimes"].as_array().unwrap();
+    let g = f["geometry"]["coordinates"].as_array().unwrap();
+    assert_eq!((t.len(), g.len()), (2, 2));
+    for k in 0..2 {
+        assert_eq!(
+            t[k].as_array().unwrap().len(),
+            g[k].as_array().unwrap().len()
+        );
+    }
+    assert_eq!(t[1][0], times[61]);
+    // A time in the second line is evaluated on the second part; one in the gap is refused.
+    let second = parse_time(&times[100]);
+    let ev = post_ok(&format!("/v1/evaluate?at={second}"), &out);
+    let want = lonlat(&Spline::from_fit(&parts[1]).eval(param(&parts[1], second)));
+    let got = &ev["features"][0]["geometry"]["coordinates"][0];
+    assert!(
+        (got[0].as_f64().unwrap() - want.0).abs() < 1.5e-7,
+        "{got} {want:?}"
+    );
+    let gap = 0.5 * (parse_time(&times[59]) + parse_time(&times[61]));
+    assert!(gap > t0);
+    let (status, _, _) = post(&format!("/v1/evaluate?at={gap}"), &out);
+    assert_eq!(status, 422);
+}
+
+#[test]
 fn a_record_repeated_exactly_is_dropped_and_a_stop_is_kept() {
     // Position 2 repeats position 1 at the same time (a duplicate record); positions 3 and 4
     // are a stop: the same place at later times, which the curve in time must keep.
