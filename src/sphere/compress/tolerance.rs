@@ -40,6 +40,10 @@
 //! * With given parameters, degrees 2 and 3 start from knots at the vertices Douglas–Peucker
 //!   keeps at [`ToleranceOptions::seed_factor`] times the tolerance (dominant points), then
 //!   insertion and removal as above, knots stored.
+//! * With given parameters (times: the vertex error is then the synchronized distance) the
+//!   polyline fallbacks and the yardstick are the time-aware Douglas–Peucker's (TD-TR,
+//!   [`synchronized_douglas_peucker`]), then the polyline through every point with knots at
+//!   the parameters.
 //! * The solver is a converged Gauss–Newton (a few passes), never 30 GLS-PIA iterations.
 //!
 //! # Measured (`scripts/compression_bench.sh --ablation`)
@@ -578,9 +582,11 @@ fn search(
 type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
 
 /// The polyline fallbacks, degree 1 on uniform knots (none stored): the Douglas–Peucker
-/// vertices at a hair under the tolerance, then (when parameters are free) every point. Each
-/// point's parameter is where it projects on its segment (kept non-decreasing). With given
-/// parameters the knots are the kept points' parameters instead (stored).
+/// vertices at the tolerance and a hair under it, then every point. Each point's parameter is
+/// where it projects on its segment (kept non-decreasing). With given parameters the vertices
+/// are the time-aware Douglas–Peucker's (TD-TR, the error at a point's own parameter) and the
+/// knots are the kept points' parameters (stored); the polyline through every point then has
+/// error 0 at every parameter, so strictly increasing parameters always meet the tolerance.
 fn polyline_candidates(
     points: &PointSet,
     base_params: &[f64],
