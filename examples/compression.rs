@@ -7,7 +7,16 @@
 //! scripts/compression_bench.sh                      # the markdown table (one thread)
 //! scripts/compression_bench.sh --noisy-points 2000  # a shorter noisy track
 //! scripts/compression_bench.sh --ablation           # each fitter idea switched off in turn
+//! scripts/compression_bench.sh --time               # tracks in time: bytes per hour at an SED bound
 //! ```
+//!
+//! `--time` (issue 13): the fixture's timestamped GPS tracks and two synthetic 1 Hz tracks
+//! fitted as position against time ([`fit_to_tolerance`] with the times as parameters, so the
+//! vertex error is the synchronized distance, SED) at SED 5, 10, 25 and 100 m, against the
+//! time-aware Douglas–Peucker ([`synchronized_douglas_peucker`], TD-TR) at the same bound.
+//! Bytes per hour of track: the coding of [`spherefit::sphere::coding`] (angles at T/10) plus
+//! the times at 1 s — for the spline the start and the duration (two varints; its knots are
+//! already in the stream), for TD-TR the start and each kept vertex's delta (varints).
 //!
 //! Per method: **numbers** as `fit_to_tolerance` counts them (2 per control point or vertex,
 //! one per stored knot, one for the spline's degree); **bytes** in the one coding of
@@ -22,7 +31,7 @@
 use spherefit::earth::{lonlat_to_unit, EARTH_RADIUS_M};
 use spherefit::sphere::coding::{encode_curve, encode_polyline, quantum_for_tolerance};
 use spherefit::sphere::optimal::{optimal_subset, subset_curve};
-use spherefit::sphere::simplify::douglas_peucker;
+use spherefit::sphere::simplify::{douglas_peucker, synchronized_douglas_peucker};
 use spherefit::sphere::tolerance::polyline_numbers;
 use spherefit::sphere::two_way::{two_way_distance, TwoWayOptions};
 use spherefit::sphere::{fit_to_tolerance, PointSet, SphericalBSpline, ToleranceOptions};
@@ -417,6 +426,10 @@ fn main() {
         }
         return;
     }
+    if args.iter().any(|a| a == "--time") {
+        time_table(noisy_points);
+        return;
+    }
     if args.iter().any(|a| a == "--ablation") {
         sets.retain(|s| s.in_ablation);
         ablation(&sets);
@@ -544,5 +557,186 @@ fn ablation(sets: &[DataSet]) {
             );
         }
         println!(" {:.1} s |", t0.elapsed().as_secs_f64());
+    }
+}
+
+/// SED bounds of the `--time` table, metres.
+const SED_TOLERANCES_M: [f64; 4] = [5.0, 10.0, 25.0, 100.0];
+
+/// A track in time: positions and unix seconds (strictly increasing).
+struct TimedLine {
+    points: PointSet,
+    times: Vec<f64>,
+}
+
+/// The fixture's tracks whose times strictly increase (six of eight).
+fn timed_fixture_tracks() -> Vec<TimedLine> {
+    let path = format!(
+        "{}/fixtures/gps_tracks_slovenia_gpxpy.geojson",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let mut out = Vec::new();
+    for f in doc["features"].as_array().unwrap() {
+        let Some(t) = f["properties"]["timestamps_unix_s"].as_array() else {
+            continue;
+        };
+        let times: Vec<f64> = t.iter().map(|x| x.as_f64().unwrap()).collect();
+        if !times.windows(2).all(|w| w[1] > w[0]) {
+            continue;
+        }
+        let rows: Vec<[f64; 3]> = f["geometry"]["coordinates"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| lonlat_to_unit(c[0].as_f64().unwrap(), c[1].as_f64().unwrap()))
+            .collect();
+        out.push(TimedLine {
+            points: PointSet::try_from_rows(&rows).unwrap(),
+            times,
+        });
+    }
+    out
+}
+
+/// A 1 Hz car track at 15 m/s on a gently curving road with 3 m noise, stopping for 60 s every
+/// 10 minutes.
+fn smooth_1hz_track(n: usize) -> TimedLine {
+    let mut s: f64 = 0.0;
+    let rows: Vec<[f64; 3]> = (0..n)
+        .map(|i| {
+            if i % 600 >= 60 {
+                s += 15.0;
+            }
+            let (e, north) = (s, 2000.0 * (s / 5000.0).sin());
+            offset(10.0, 50.0, e + 3.0 * noise(i, 4), north + 3.0 * noise(i, 5))
+        })
+        .collect();
+    TimedLine {
+        points: PointSet::try_from_rows(&rows).unwrap(),
+        times: (0..n).map(|i| 1.7e9 + i as f64).collect(),
+    }
+}
+
+fn varint_len(mut x: u64) -> usize {
+    let mut n = 1;
+    while x >= 0x80 {
+        x >>= 7;
+        n += 1;
+    }
+    n
+}
+
+/// Largest SED (radians) of a TD-TR polyline: each point against the SLERP between its kept
+/// neighbours at its time, measured here afresh.
+fn polyline_sed(line: &TimedLine, kept: &[usize]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for w in kept.windows(2) {
+        let (a, b) = (line.points.get(w[0]), line.points.get(w[1]));
+        for j in w[0]..=w[1] {
+            let f = (line.times[j] - line.times[w[0]]) / (line.times[w[1]] - line.times[w[0]]);
+            let c = spherefit::sphere::point::slerp(a, b, f).unwrap();
+            worst = worst.max(spherefit::sphere::point::angle_between(
+                line.points.get(j),
+                &c,
+            ));
+        }
+    }
+    worst
+}
+
+/// The `--time` table (module docs).
+fn time_table(noisy_points: usize) {
+    let noisy = noisy_track_with_jumps(noisy_points);
+    let sets: Vec<(String, Vec<TimedLine>)> = vec![
+        (
+            "GPS tracks in time (6 segments)".into(),
+            timed_fixture_tracks(),
+        ),
+        (
+            format!("smooth 1 Hz car track, stops ({noisy_points} s)"),
+            vec![smooth_1hz_track(noisy_points)],
+        ),
+        (
+            format!("noisy 1 Hz track, jumps ({noisy_points} s)"),
+            vec![TimedLine {
+                times: (0..noisy.points.len()).map(|i| 1.7e9 + i as f64).collect(),
+                points: noisy.points,
+            }],
+        ),
+    ];
+    println!("| track | points | hours | SED T | spline numbers / bytes | TD-TR numbers / bytes | spline bytes / TD-TR | bytes per hour: spline / TD-TR | max SED m: spline / TD-TR | spline two-way m | spline degrees | time ms: spline / TD-TR |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (name, lines) in &sets {
+        let points: usize = lines.iter().map(|l| l.points.len()).sum();
+        let hours: f64 = lines
+            .iter()
+            .map(|l| (l.times[l.times.len() - 1] - l.times[0]) / 3600.0)
+            .sum();
+        for &tol_m in &SED_TOLERANCES_M {
+            let tol = tol_m / EARTH_RADIUS_M;
+            let q = quantum_for_tolerance(tol);
+            let (mut sn, mut sb, mut tn, mut tb) = (0, 0, 0, 0);
+            let (mut s_sed, mut t_sed, mut s_tw): (f64, f64, f64) = (0.0, 0.0, 0.0);
+            let (mut s_ms, mut t_ms) = (0.0, 0.0);
+            let mut met = true;
+            let mut degrees = Vec::new();
+            for l in lines {
+                let t0 = Instant::now();
+                let fit =
+                    fit_to_tolerance(&l.points, Some(&l.times), tol, &ToleranceOptions::default())
+                        .unwrap();
+                s_ms += t0.elapsed().as_secs_f64() * 1e3;
+                met &= fit.tolerance_met;
+                let duration = (l.times[l.times.len() - 1] - l.times[0]).round() as u64;
+                sn += fit.stored_numbers + 2;
+                sb += encode_curve(&fit.spline, fit.knot_rule, q).unwrap().len()
+                    + varint_len(l.times[0].round() as u64)
+                    + varint_len(duration);
+                // The SED of the returned spline: its error at the given parameters.
+                s_sed = s_sed.max(fit.metrics.max_error_rad);
+                s_tw = s_tw.max(fit.two_way_rad);
+                if !degrees.contains(&fit.degree) {
+                    degrees.push(fit.degree);
+                }
+                let t0 = Instant::now();
+                let kept = synchronized_douglas_peucker(&l.points, &l.times, tol);
+                t_ms += t0.elapsed().as_secs_f64() * 1e3;
+                tn += 3 * kept.len();
+                let vertices = PointSet::try_from_rows(
+                    &kept.iter().map(|&i| l.points.get(i)).collect::<Vec<_>>(),
+                )
+                .unwrap();
+                tb += encode_polyline(&vertices, q).unwrap().len()
+                    + varint_len(l.times[0].round() as u64)
+                    + kept
+                        .windows(2)
+                        .map(|w| varint_len((l.times[w[1]] - l.times[w[0]]).round() as u64))
+                        .sum::<usize>();
+                t_sed = t_sed.max(polyline_sed(l, &kept));
+            }
+            degrees.sort_unstable();
+            let ratio = sb as f64 / tb as f64;
+            let ratio = if sb > tb {
+                format!("**{ratio:.3}**")
+            } else {
+                format!("{ratio:.3}")
+            };
+            println!(
+                "| {name} | {points} | {hours:.2} | {tol_m} m | {sn} / {sb} | {tn} / {tb} | {ratio} | {:.0} / {:.0} | {:.2} / {:.2}{} | {:.2} | {} | {s_ms:.0} / {t_ms:.1} |",
+                sb as f64 / hours,
+                tb as f64 / hours,
+                s_sed * EARTH_RADIUS_M,
+                t_sed * EARTH_RADIUS_M,
+                if met { "" } else { " (fitter: not met)" },
+                s_tw * EARTH_RADIUS_M,
+                degrees
+                    .iter()
+                    .map(|d| d.to_string())
+                    .collect::<Vec<_>>()
+                    .join(","),
+            );
+        }
     }
 }

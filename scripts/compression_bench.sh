@@ -7,6 +7,7 @@
 #   scripts/compression_bench.sh              # the markdown table
 #   scripts/compression_bench.sh --noisy-points 2000    # a shorter noisy 1 Hz track (default 16,000)
 #   scripts/compression_bench.sh --ablation   # stored numbers with each idea switched off
+#   scripts/compression_bench.sh --time       # tracks in time: bytes per hour at SED 5, 10, 25, 100 m against TD-TR
 #
 # Times are wall clock on one thread of whatever machine runs it.
 set -euo pipefail

@@ -9,10 +9,13 @@
 //!   [`SphericalCurve`](sphere::SphericalCurve) trait), [`mod@sphere::fit`] (parameters and
 //!   knots, GLS-PIA, `Solver::GaussNewton`, geodesic error metrics), [`mod@sphere::interpolate`]
 //!   (Beta-spline interpolation), [`sphere::compress`] (fitting to a tolerance, spherical
-//!   Douglas–Peucker) and `sphere::linalg` (band matrix solvers, internal).
+//!   Douglas–Peucker and its time-aware form TD-TR) and `sphere::linalg` (band matrix solvers,
+//!   internal).
 //! * [`document`]: the S^n JSON documents (points in, splines and fit results out) shared by the
 //!   CLI and the service.
-//! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out.
+//! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out, and
+//!   tracks in time ([`earth::time`]: times read and checked, position as a function of time,
+//!   speed and heading).
 //! * [`service`]: the HTTP service (axum): `/v1/fit`, `/v1/interpolate`, `/v1/evaluate` and the
 //!   S^n documents under `/v1/sphere/`.
 //! * [`cli`]: the command line.

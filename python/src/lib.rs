@@ -317,6 +317,7 @@ fn fit_wkb(
                 max_iterations,
             },
             cancel: Cancel::new(),
+            time: Default::default(),
         })
     })()
     .map_err(|f| f.into_py(py))?;
@@ -350,6 +351,7 @@ fn interpolate_wkb(
             ..Limits::default()
         },
         cancel: Cancel::new(),
+        time: Default::default(),
     })
     .map_err(|f| f.into_py(py))?;
     run_all(py, wkbs, &job.cancel, |i, w| {
@@ -389,6 +391,7 @@ fn evaluate_json(
             ..Limits::default()
         },
         cancel: Cancel::new(),
+        time: Default::default(),
     })
     .map_err(|f| f.into_py(py))?;
     let prefix = format!("/properties/{key}");

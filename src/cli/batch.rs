@@ -19,7 +19,10 @@ mod input;
 mod pipeline;
 
 use super::Failure;
-use crate::earth::{InterpolateSettings, Job, Limits, Operation, OutputOptions, Problem, Sampling};
+use crate::earth::{
+    InterpolateSettings, Job, Limits, Operation, OutputOptions, Problem, Sampling, TimeOptions,
+    TimeSource,
+};
 use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
 use clap::Args;
 use input::{Format, Input};
@@ -128,6 +131,16 @@ pub(crate) struct OutputArgs {
         allow_negative_numbers = true
     )]
     spacing_m: Option<f64>,
+    /// For a curve in time (--parameterization time): an output point every this many
+    /// seconds from the track's start, and its end (not with --samples or --spacing-m)
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        alias = "spacing_s",
+        allow_negative_numbers = true,
+        conflicts_with_all = ["samples", "spacing_m"]
+    )]
+    spacing_s: Option<f64>,
     /// Decimals of output degrees, 0 to 15, control points included (7 decimals is 1.1 cm or
     /// less); altitudes are rounded to millimetres
     #[arg(long, value_name = "DECIMALS", default_value_t = crate::earth::DEFAULT_PRECISION)]
@@ -159,9 +172,16 @@ pub(crate) struct FitOptionArgs {
     /// stagnates (the paper uses 30)
     #[arg(long, value_name = "N", default_value_t = crate::sphere::fit::DEFAULT_ITERATIONS)]
     iterations: usize,
-    /// Data parameters: chord (cumulative geodesic distance), centripetal or uniform
-    #[arg(long, value_name = "METHOD", default_value = "chord")]
-    parameterization: Parameterization,
+    /// Data parameters: chord (cumulative geodesic distance), centripetal, uniform, or time
+    /// (position as a function of each position's time; with --tolerance-m the bound is the
+    /// synchronized distance; implied by --time-property and --spacing-s) [default: chord]
+    #[arg(long, value_name = "METHOD")]
+    parameterization: Option<ParameterizationArg>,
+    /// With --parameterization time: the feature property holding one time per position
+    /// (RFC 3339 strings or unix seconds) [default: the first of coordTimes, times, timestamps
+    /// present, else the 4th coordinate of each position]
+    #[arg(long, value_name = "NAME", alias = "time_property")]
+    time_property: Option<String>,
     /// Optimiser: gauss-newton (the paper's loss, solved in a few Gauss-Newton steps) or
     /// gls-pia (the paper's progressive iterative approximation)
     #[arg(long, value_name = "SOLVER", default_value = "gauss-newton")]
@@ -187,6 +207,27 @@ pub(crate) struct FitOptionArgs {
     /// Most GLS-PIA iterations per fit (the service's SPHEREFIT_MAX_ITERATIONS)
     #[arg(long, value_name = "N", default_value_t = Limits::default().max_iterations, help_heading = "Limits")]
     max_iterations: usize,
+}
+
+/// `--parameterization`: one of the math core's, or time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ParameterizationArg {
+    /// Position as a function of time.
+    Time,
+    /// Chord, centripetal or uniform.
+    Shape(Parameterization),
+}
+
+impl std::str::FromStr for ParameterizationArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "time" {
+            return Ok(ParameterizationArg::Time);
+        }
+        s.parse::<Parameterization>()
+            .map(ParameterizationArg::Shape)
+            .map_err(|_| format!("{s:?}: use chord, centripetal, uniform or time"))
+    }
 }
 
 /// Beta-spline shape (query parameters of `/v1/interpolate`).
@@ -250,6 +291,11 @@ pub(crate) struct InterpolateArgs {
 #[derive(Debug, Args)]
 #[command(after_long_help = AFTER_HELP)]
 pub(crate) struct EvaluateArgs {
+    /// Positions at these times instead of a dense line, with speed (m/s) and heading
+    /// (degrees from north) from the curve's derivative: RFC 3339 times or unix seconds,
+    /// comma-separated (fits made with --parameterization time only)
+    #[arg(long, value_name = "TIMES", help_heading = "Output curves")]
+    at: Option<String>,
     #[command(flatten)]
     output: OutputArgs,
     #[command(flatten)]
@@ -258,7 +304,14 @@ pub(crate) struct EvaluateArgs {
 
 /// `spherefit fit`.
 pub(crate) fn fit(a: FitArgs) -> Result<(), Failure> {
-    run("fit", a.fit.operation(), a.fit.limits(), &a.output, a.batch)
+    run(
+        "fit",
+        a.fit.operation(),
+        a.fit.limits(),
+        a.fit.time(a.output.spacing_s.is_some())?,
+        &a.output,
+        a.batch,
+    )
 }
 
 impl FitOptionArgs {
@@ -270,7 +323,10 @@ impl FitOptionArgs {
             degree: self.degree,
             knots: self.knots,
             iterations: self.iterations,
-            parameterization: self.parameterization,
+            parameterization: match self.parameterization {
+                Some(ParameterizationArg::Shape(p)) => p,
+                _ => FitOptions::faithful().parameterization,
+            },
             solver: self.solver,
             parameter_correction: self.parameter_correction,
             ..FitOptions::faithful()
@@ -282,6 +338,34 @@ impl FitOptionArgs {
             },
             None => Operation::Fit(options),
         }
+    }
+
+    /// Fitting in time (`--parameterization time`, implied by `--time-property` and
+    /// `--spacing-s`), as the service reads its query.
+    fn time(&self, spacing_s: bool) -> Result<TimeOptions, Failure> {
+        let implied = if self.time_property.is_some() {
+            Some("--time-property")
+        } else if spacing_s {
+            Some("--spacing-s")
+        } else {
+            None
+        };
+        let in_time = match (self.parameterization, implied) {
+            (Some(ParameterizationArg::Time), _) | (None, Some(_)) => true,
+            (Some(ParameterizationArg::Shape(_)), Some(k)) => {
+                return Err(Failure::input(format!(
+                    "{k} is for a fit in time: it excludes --parameterization other than time"
+                )))
+            }
+            _ => false,
+        };
+        Ok(TimeOptions {
+            fit_in_time: in_time.then(|| match &self.time_property {
+                Some(n) => TimeSource::Property(n.clone()),
+                None => TimeSource::Auto,
+            }),
+            at_unix_s: None,
+        })
     }
 
     /// The limits set by the fit's flags (`--max-samples` is an output option).
@@ -304,6 +388,7 @@ pub(crate) fn interpolate(a: InterpolateArgs) -> Result<(), Failure> {
         "interpolate",
         Operation::Interpolate(settings),
         Limits::default(),
+        TimeOptions::default(),
         &a.output,
         a.batch,
     )
@@ -311,21 +396,42 @@ pub(crate) fn interpolate(a: InterpolateArgs) -> Result<(), Failure> {
 
 /// `spherefit evaluate`.
 pub(crate) fn evaluate(a: EvaluateArgs) -> Result<(), Failure> {
+    let time = evaluate_time(&a)?;
     run(
         "evaluate",
         Operation::Evaluate,
         Limits::default(),
+        time,
         &a.output,
         a.batch,
     )
 }
 
+/// `--at`, read as the service reads `at=`.
+fn evaluate_time(a: &EvaluateArgs) -> Result<TimeOptions, Failure> {
+    let at_unix_s =
+        a.at.as_deref()
+            .map(crate::earth::time::parse_time_list)
+            .transpose()
+            .map_err(|m| Failure::input(format!("--at: {m}")))?;
+    Ok(TimeOptions {
+        fit_in_time: None,
+        at_unix_s,
+    })
+}
+
 /// The job of a command, checked as the service checks its query.
-fn job(operation: Operation, limits: Limits, output: &OutputArgs) -> Result<Job, Failure> {
-    let sampling = match (output.samples, output.spacing_m) {
-        (Some(n), _) => Sampling::Samples(n),
-        (None, Some(s)) => Sampling::SpacingM(s),
-        (None, None) => Sampling::Auto,
+fn job(
+    operation: Operation,
+    limits: Limits,
+    time: TimeOptions,
+    output: &OutputArgs,
+) -> Result<Job, Failure> {
+    let sampling = match (output.samples, output.spacing_m, output.spacing_s) {
+        (_, _, Some(s)) => Sampling::SpacingS(s),
+        (Some(n), _, _) => Sampling::Samples(n),
+        (None, Some(s), _) => Sampling::SpacingM(s),
+        (None, None, None) => Sampling::Auto,
     };
     let job = Job {
         operation,
@@ -338,6 +444,7 @@ fn job(operation: Operation, limits: Limits, output: &OutputArgs) -> Result<Job,
             ..limits
         },
         cancel: Default::default(),
+        time,
     };
     job.validate().map_err(|e| match e.problem {
         Problem::InvalidOption { option, message } => Failure::input(format!(
@@ -407,12 +514,13 @@ fn run(
     command: &'static str,
     operation: Operation,
     limits: Limits,
+    time: TimeOptions,
     output: &OutputArgs,
     batch: BatchArgs,
 ) -> Result<(), Failure> {
     let started = Instant::now();
     let allow_spline = matches!(operation, Operation::Evaluate);
-    let job = job(operation, limits, output)?;
+    let job = job(operation, limits, time, output)?;
     if let Some(n) = batch.threads {
         if n == 0 {
             return Err(Failure::input("--threads: use 1 or more"));
@@ -704,16 +812,27 @@ mod tests {
         let cmd = Cmd::try_parse_from(std::iter::once("x").chain(args.iter().copied()))
             .map_err(Failure::input)?;
         match cmd {
-            Cmd::Fit(a) => job(a.fit.operation(), a.fit.limits(), &a.output),
+            Cmd::Fit(a) => job(
+                a.fit.operation(),
+                a.fit.limits(),
+                a.fit.time(a.output.spacing_s.is_some())?,
+                &a.output,
+            ),
             Cmd::Interpolate(a) => job(
                 Operation::Interpolate(InterpolateSettings {
                     beta1: a.shape.beta1,
                     beta2: a.shape.beta2,
                 }),
                 Limits::default(),
+                TimeOptions::default(),
                 &a.output,
             ),
-            Cmd::Evaluate(a) => job(Operation::Evaluate, Limits::default(), &a.output),
+            Cmd::Evaluate(a) => job(
+                Operation::Evaluate,
+                Limits::default(),
+                evaluate_time(&a)?,
+                &a.output,
+            ),
         }
     }
 
@@ -793,6 +912,39 @@ mod tests {
                 &[("beta1", "2"), ("beta2", "0.5"), ("samples", "40")]
             )
         );
+        for (cli, service) in [
+            (
+                &["fit", "--parameterization", "time", "--tolerance-m", "10"][..],
+                &[("parameterization", "time"), ("tolerance_m", "10")][..],
+            ),
+            (
+                &["fit", "--time-property", "coordTimes"][..],
+                &[("time_property", "coordTimes")][..],
+            ),
+            (
+                &["fit", "--spacing-s", "30"][..],
+                &[("spacing_s", "30")][..],
+            ),
+            (
+                &["evaluate", "--at", "1,2010-10-03T09:36:30Z"][..],
+                &[("at", "1,2010-10-03T09:36:30Z")][..],
+            ),
+            (
+                &["evaluate", "--spacing-s", "60"][..],
+                &[("spacing_s", "60")][..],
+            ),
+        ] {
+            let endpoint = if cli[0] == "fit" {
+                GeoEndpoint::Fit
+            } else {
+                GeoEndpoint::Evaluate
+            };
+            assert_eq!(
+                cli_job(cli).unwrap(),
+                service_job(endpoint, service),
+                "{cli:?}"
+            );
+        }
     }
 
     #[test]
@@ -806,6 +958,9 @@ mod tests {
             (&["fit", "--tolerance-m", "0"][..], "--tolerance-m"),
             (&["interpolate", "--beta1", "0"][..], "--beta1"),
             (&["interpolate", "--beta2", "-1"][..], "--beta2"),
+            (&["fit", "--spacing-s", "0"][..], "--spacing-s"),
+            (&["interpolate", "--spacing-s", "10"][..], "--spacing-s"),
+            (&["evaluate", "--at", "1,2", "--samples", "5"][..], "--at"),
         ] {
             let e = cli_job(args).unwrap_err();
             assert_eq!(e.status, 2, "{args:?}");

@@ -8,6 +8,8 @@ use super::lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, round_to, unit_to_lonlat
 use super::sampling::{
     sample, DenseCurve, Sampling, AUTO_DEVIATION_FLOOR_M, AUTO_DEVIATION_FRACTION,
 };
+use super::sampling::{sample_at, time_parameters};
+use super::time::{check_times, times_from_array, LineTimes, TimeFormat, TimeMap, TimeOrigin};
 use super::{EarthError, InterpolateSettings, Limits, OutputOptions, Problem};
 use crate::document::BetaDocument;
 use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
@@ -62,6 +64,9 @@ pub struct LinePositions {
     pub points: Vec<[f64; 3]>,
     /// One altitude per position, when every position has one.
     pub alts: Option<Vec<f64>>,
+    /// The 4th number of every position (a time), when read with `allow_m` and every
+    /// position has one.
+    pub m: Option<Vec<f64>>,
 }
 
 /// Reads `[[lon, lat(, alt)], ...]`, checking types, ranges and that either all positions or
@@ -71,6 +76,20 @@ pub struct LinePositions {
 /// [`Problem::InvalidGeoJson`] when `v` is not an array; [`Problem::InvalidCoordinate`] at the
 /// offending position or number.
 pub fn parse_positions(v: &Value, pointer: &str) -> Result<LinePositions, EarthError> {
+    parse_positions_with(v, pointer, false)
+}
+
+/// As [`parse_positions`]; with `allow_m`, positions may also be `[lon, lat, alt, t]` (all of
+/// a line alike), the 4th number kept in [`LinePositions::m`].
+///
+/// # Errors
+/// As [`parse_positions`].
+pub fn parse_positions_with(
+    v: &Value,
+    pointer: &str,
+    allow_m: bool,
+) -> Result<LinePositions, EarthError> {
+    let max_len = if allow_m { 4 } else { 3 };
     let arr = v.as_array().ok_or_else(|| {
         EarthError::new(
             pointer,
@@ -79,7 +98,8 @@ pub fn parse_positions(v: &Value, pointer: &str) -> Result<LinePositions, EarthE
     })?;
     let mut points = Vec::with_capacity(arr.len());
     let mut alts = Vec::new();
-    let mut with_alt = None;
+    let mut ms = Vec::new();
+    let mut with_alt: Option<usize> = None;
     for (i, pos) in arr.iter().enumerate() {
         let bad = |ptr: String, msg: String| EarthError::new(ptr, Problem::InvalidCoordinate(msg));
         let nums = pos.as_array().ok_or_else(|| {
@@ -89,16 +109,28 @@ pub fn parse_positions(v: &Value, pointer: &str) -> Result<LinePositions, EarthE
                     .into(),
             )
         })?;
-        if nums.len() < 2 || nums.len() > 3 {
+        if nums.len() < 2 || nums.len() > max_len {
             return Err(bad(
                 format!("{pointer}/{i}"),
-                format!(
-                    "a position has 2 or 3 numbers ([longitude, latitude(, altitude)]), this one has {}",
-                    nums.len()
-                ),
+                if allow_m {
+                    format!(
+                        "a position has 2 to 4 numbers ([longitude, latitude(, altitude(, time))]), this one has {}",
+                        nums.len()
+                    )
+                } else {
+                    format!(
+                        "a position has 2 or 3 numbers ([longitude, latitude(, altitude)]), this one has {}{}",
+                        nums.len(),
+                        if nums.len() == 4 {
+                            " (a 4th number is read as a time only with parameterization=time)"
+                        } else {
+                            ""
+                        }
+                    )
+                },
             ));
         }
-        let mut xs = [0.0; 3];
+        let mut xs = [0.0; 4];
         for (k, x) in nums.iter().enumerate() {
             xs[k] = x.as_f64().ok_or_else(|| {
                 bad(
@@ -107,21 +139,21 @@ pub fn parse_positions(v: &Value, pointer: &str) -> Result<LinePositions, EarthE
                 )
             })?;
         }
-        let has_alt = nums.len() == 3;
         match with_alt {
-            None => with_alt = Some(has_alt),
-            Some(w) if w != has_alt => {
+            None => with_alt = Some(nums.len()),
+            Some(w) if w != nums.len() => {
                 return Err(bad(
                     format!("{pointer}/{i}"),
                     format!(
-                        "this position has {} numbers but the first has {}: give an altitude for every position of a line or for none",
+                        "this position has {} numbers but the first has {w}: give an altitude{} for every position of a line or for none",
                         nums.len(),
-                        if w { 3 } else { 2 }
+                        if allow_m { " (and a time)" } else { "" }
                     ),
                 ));
             }
             Some(_) => {}
         }
+        let has_alt = nums.len() >= 3;
         let ll = LonLat::try_new(xs[0], xs[1]).map_err(|e| {
             let k = match e {
                 super::lonlat::LonLatError::LatitudeOutOfRange { .. } => 1,
@@ -133,10 +165,14 @@ pub fn parse_positions(v: &Value, pointer: &str) -> Result<LinePositions, EarthE
         if has_alt {
             alts.push(xs[2]);
         }
+        if nums.len() == 4 {
+            ms.push(xs[3]);
+        }
     }
     Ok(LinePositions {
         points,
-        alts: (with_alt == Some(true)).then_some(alts),
+        alts: (with_alt >= Some(3)).then_some(alts),
+        m: (with_alt == Some(4)).then_some(ms),
     })
 }
 
@@ -180,6 +216,28 @@ impl DistinctPositions {
                     *d.multiplicity.last_mut().expect("non-empty") += 1;
                     continue;
                 }
+            }
+            d.points.push(*p);
+            d.input_index.push(i);
+            d.multiplicity.push(1);
+            d.alts.push(line.alts.as_ref().map_or(0.0, |a| a[i]));
+        }
+        d
+    }
+
+    /// Drops the positions flagged in `duplicate` (records repeated exactly, time and
+    /// position), keeping every other one, even where the position repeats at a later time.
+    pub fn from_line_timed(line: &LinePositions, duplicate: &[bool]) -> DistinctPositions {
+        let mut d = DistinctPositions {
+            points: Vec::with_capacity(line.points.len()),
+            input_index: Vec::with_capacity(line.points.len()),
+            multiplicity: Vec::with_capacity(line.points.len()),
+            alts: Vec::with_capacity(line.points.len()),
+        };
+        for (i, p) in line.points.iter().enumerate() {
+            if duplicate[i] && !d.points.is_empty() {
+                *d.multiplicity.last_mut().expect("non-empty") += 1;
+                continue;
             }
             d.points.push(*p);
             d.input_index.push(i);
@@ -289,6 +347,8 @@ pub struct CurveOutput {
     pub has_alt: bool,
     /// What was done and how well.
     pub report: CurveReport,
+    /// The time of each dense point, for a curve in time.
+    pub time: Option<DenseTimes>,
 }
 
 /// The number of points automatic sampling starts from: a few per control point.
@@ -301,27 +361,149 @@ pub fn auto_tolerance_rad(max_error_rad: f64) -> f64 {
     (AUTO_DEVIATION_FRACTION * max_error_rad).max(m_to_rad(AUTO_DEVIATION_FLOOR_M))
 }
 
+/// Where one line's times are, for a fit in time.
+#[derive(Clone, Debug)]
+pub enum LineTimeInput<'a> {
+    /// This line's array in the property `name`, found at `pointer`.
+    Property {
+        /// The array (one time per position).
+        value: &'a Value,
+        /// Its JSON pointer.
+        pointer: String,
+        /// The property's name.
+        name: String,
+    },
+    /// The 4th number of each position.
+    M,
+}
+
+/// A line's times, checked, for a fit in time.
+#[derive(Clone, Debug)]
+pub struct Timed {
+    /// Times <-> curve parameter.
+    pub map: TimeMap,
+    /// Where the times came from (and go to in the output).
+    pub origin: TimeOrigin,
+    /// The curve parameter of each distinct position: its time mapped to [0, 1].
+    pub params: Vec<f64>,
+}
+
+/// The dense output's times.
+#[derive(Clone, Debug)]
+pub struct DenseTimes {
+    /// Unix seconds of each dense point.
+    pub unix_s: Vec<f64>,
+    /// How to write them.
+    pub format: TimeFormat,
+    /// Where to write them.
+    pub origin: TimeOrigin,
+}
+
+/// Reads and checks a line's times ([`super::time`]) and drops duplicate records.
+fn timed_line(
+    line: &LinePositions,
+    pointer: &str,
+    input: &LineTimeInput<'_>,
+) -> Result<(DistinctPositions, Timed), EarthError> {
+    let times = match input {
+        LineTimeInput::Property {
+            value,
+            pointer: tp,
+            name,
+        } => times_from_array(
+            value,
+            tp,
+            line.points.len(),
+            TimeOrigin::Property(name.clone()),
+        )?,
+        LineTimeInput::M => LineTimes {
+            unix_s: line.m.clone().ok_or_else(|| {
+                EarthError::new(
+                    pointer,
+                    Problem::InvalidTime(format!(
+                        "no times for this line: the feature's properties have none of {} and its positions no 4th number [lon, lat, alt, time]; name the property with time_property",
+                        super::time::TIME_PROPERTIES.join(", ")
+                    )),
+                )
+            })?,
+            format: TimeFormat::UnixS,
+            origin: TimeOrigin::M,
+            pointer: pointer.to_string(),
+        },
+    };
+    let duplicate = check_times(&times, |i| {
+        angle_between(&line.points[i - 1], &line.points[i]) <= REPEAT_ANGLE_RAD
+    })?;
+    let distinct = DistinctPositions::from_line_timed(line, &duplicate);
+    if distinct.len() < 2 {
+        return Err(EarthError::new(
+            pointer,
+            Problem::TooFewPoints {
+                distinct: distinct.len(),
+                need: 2,
+            },
+        ));
+    }
+    let kept: Vec<f64> = distinct
+        .input_index
+        .iter()
+        .map(|&i| times.unix_s[i])
+        .collect();
+    let map = TimeMap {
+        start_unix_s: kept[0],
+        end_unix_s: kept[kept.len() - 1],
+        format: times.format,
+    };
+    let mut params: Vec<f64> = kept.iter().map(|&t| map.param(t)).collect();
+    let last = params.len() - 1;
+    params[last] = 1.0;
+    Ok((
+        distinct,
+        Timed {
+            map,
+            origin: times.origin,
+            params,
+        },
+    ))
+}
+
 /// The start every curve operation shares: parse the positions, check a ring is closed, drop
-/// repeated consecutive positions and make sure enough distinct ones remain.
+/// repeated consecutive positions and make sure enough distinct ones remain. With `time`, the
+/// line's times are read and checked, only duplicate records (same time and position) are
+/// dropped, and the line is never closed.
 fn prepare_line(
     coords: &Value,
     pointer: &str,
     closed: bool,
-) -> Result<(LinePositions, DistinctPositions), EarthError> {
-    let line = parse_positions(coords, pointer)?;
+    time: Option<&LineTimeInput<'_>>,
+) -> Result<(LinePositions, DistinctPositions, Option<Timed>), EarthError> {
+    let line = parse_positions_with(coords, pointer, matches!(time, Some(LineTimeInput::M)))?;
+    if let Some(input) = time {
+        let (distinct, timed) = timed_line(&line, pointer, input)?;
+        distinct.check_curve(pointer)?;
+        return Ok((line, distinct, Some(timed)));
+    }
     if closed {
         check_ring(&line, pointer)?;
     }
     let distinct = DistinctPositions::from_line(&line);
     distinct.check_curve(pointer)?;
-    Ok((line, distinct))
+    Ok((line, distinct, None))
 }
 
 /// Fits one line (or ring, when `closed`) given as a GeoJSON coordinates array.
 ///
+/// With `time`, the line is fitted as position against time: each position's parameter is its
+/// time mapped to [0, 1] (never moved), so the error reported at a position is its
+/// synchronized distance; long segments get no points inserted (nothing says where the track
+/// was between its times), and a line that returns to its start stays open. A curve in time
+/// that strays from the line ([`TIME_STRAY_SHARE`]) is refitted with GLS-PIA.
+///
 /// # Errors
-/// Invalid positions, an open or short ring, fewer than 2 distinct positions, antipodal
-/// neighbours, more control points than distinct positions, or output over the limits.
+/// Invalid positions or times, an open or short ring, fewer than 2 distinct positions,
+/// antipodal neighbours, more control points than distinct positions, or output over the
+/// limits.
+#[allow(clippy::too_many_arguments)]
 pub fn fit_line(
     coords: &Value,
     pointer: &str,
@@ -330,9 +512,11 @@ pub fn fit_line(
     options: &FitOptions,
     output: &OutputOptions,
     limits: &Limits,
+    time: Option<&LineTimeInput<'_>>,
 ) -> Result<CurveOutput, EarthError> {
-    let (line, distinct) = prepare_line(coords, pointer, closed)?;
-    let closed = closed || is_closed_line(&distinct);
+    let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
+    let closed = timed.is_none() && (closed || is_closed_line(&distinct));
+    let given = timed.as_ref().map(|t| t.params.as_slice());
     let m = distinct.len();
     let degree = options.degree.min(m - 1);
     let cap = limits.max_control_points.max(degree + 1);
@@ -354,7 +538,7 @@ pub fn fit_line(
     // The faithful default fits the line, not only its vertices: long segments get points
     // along them (see `sphere::geometry::densify`), and the vertices' parameters are read off
     // the fit. The paper's placements fit the vertices as given.
-    let (fit_points, at) = if options.knots == KnotPlacement::Adaptive {
+    let (fit_points, at) = if options.knots == KnotPlacement::Adaptive && timed.is_none() {
         densify(
             &points,
             DENSIFY_STEP_SHARE * median_step_rad(&distinct),
@@ -364,17 +548,19 @@ pub fn fit_line(
     } else {
         (points.clone(), (0..m).collect())
     };
-    let run = |n_ctrl: usize| {
-        let opts = options
+    let run_with = |n_ctrl: usize, solver: crate::sphere::Solver| {
+        let mut opts = options
             .clone()
             .with_degree(degree)
             .with_control_points(n_ctrl);
+        opts.solver = solver;
         if closed {
             fit_closed(&fit_points, &opts)
         } else {
-            fit(&fit_points, None, &opts)
+            fit(&fit_points, given, &opts)
         }
     };
+    let run = |n_ctrl: usize| run_with(n_ctrl, options.solver);
     let mut r = run(control_points).map_err(fit_err)?;
     if options.control_points.is_none() {
         // The count from the data: a quarter of the positions, or half of them when a quarter
@@ -390,24 +576,52 @@ pub fn fit_line(
             }
         }
     }
-    let r_max_rad = r.metrics.max_error_rad;
-    let params: Vec<f64> = at.iter().map(|&k| r.parameters[k]).collect();
-    let (spline, iterations, converged) = (r.spline, r.iterations, r.converged);
-    let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
-    // The curve as returned judged against the whole line, both ways (certified).
-    let tw = two_way_distance(
-        &spline,
-        &points,
-        &params,
-        &TwoWayOptions::default()
-            .with_precision_rad(
-                (REPORT_TWO_WAY_PRECISION * r_max_rad)
-                    .max(REPORT_TWO_WAY_LENGTH_SHARE * polyline_length(&points))
-                    .max(m_to_rad(0.5)),
-            )
-            .with_max_evaluations(REPORT_TWO_WAY_EVALUATIONS + 64 * points.len()),
-    )
-    .map_err(fit_err)?;
+    // Rounded, and judged against the whole line both ways (certified).
+    let measured = |r: crate::sphere::FitReport| -> Result<_, EarthError> {
+        let r_max_rad = r.metrics.max_error_rad;
+        let params: Vec<f64> = at.iter().map(|&k| r.parameters[k]).collect();
+        let n_ctrl = r.spline.control_points().len();
+        let (spline, control_ll) = round_spline(&r.spline, output.precision).map_err(fit_err)?;
+        let tw = two_way_distance(
+            &spline,
+            &points,
+            &params,
+            &TwoWayOptions::default()
+                .with_precision_rad(
+                    (REPORT_TWO_WAY_PRECISION * r_max_rad)
+                        .max(REPORT_TWO_WAY_LENGTH_SHARE * polyline_length(&points))
+                        .max(m_to_rad(0.5)),
+                )
+                .with_max_evaluations(REPORT_TWO_WAY_EVALUATIONS + 64 * points.len()),
+        )
+        .map_err(fit_err)?;
+        Ok((
+            spline,
+            control_ll,
+            params,
+            r.iterations,
+            r.converged,
+            tw,
+            r_max_rad,
+            n_ctrl,
+        ))
+    };
+    let mut m_best = measured(r)?;
+    // In time, spans between positions far apart in time have little data, and Gauss-Newton's
+    // least squares can send the curve far from the line there while every position stays
+    // close (a fixture track went 160 km off). When the curve strays from the line more than
+    // TIME_STRAY_SHARE times its max error, GLS-PIA (which moves control points only towards
+    // the data) is tried with the same control points, and the curve nearer the line kept.
+    if timed.is_some()
+        && options.solver != crate::sphere::Solver::GlsPia
+        && m_best.5.upper_rad > TIME_STRAY_SHARE * m_best.6.max(m_to_rad(1.0))
+    {
+        let alt = measured(run_with(m_best.7, crate::sphere::Solver::GlsPia).map_err(fit_err)?)?;
+        if alt.5.upper_rad < m_best.5.upper_rad {
+            m_best = alt;
+        }
+    }
+    let (spline, control_ll, params, iterations, converged, tw, _, _) = m_best;
     let input_len = polyline_length(&points);
     let (mut out, _) = finish_fit(
         Fitted {
@@ -422,6 +636,7 @@ pub fn fit_line(
             knots: serde_json::to_value(options.knots).expect("enum serialises"),
             parameterization: options.parameterization,
             sampling_aim_rad: None,
+            time: timed.as_ref(),
         },
         pointer,
         path,
@@ -457,6 +672,8 @@ struct Fitted<'a> {
     parameterization: crate::sphere::Parameterization,
     /// What automatic dense sampling aims for; by default a share of the max error.
     sampling_aim_rad: Option<f64>,
+    /// The line's times, for a fit in time.
+    time: Option<&'a Timed>,
 }
 
 /// Measures a fitted curve as returned, samples it and writes its `properties.fit` fields.
@@ -481,6 +698,7 @@ fn finish_fit(
         knots,
         parameterization,
         sampling_aim_rad,
+        time,
     } = f;
     let control_points = spline.control_points().len();
     // Errors of the spline as returned, each distinct position counted once per input copy.
@@ -492,15 +710,22 @@ fn finish_fit(
         sq_rad += e * e * k as f64;
     }
     let n_in = line.points.len();
-    let dense = sample(
+    let dense = sample_curve(
         &spline,
-        ring_sampling(output.sampling, closed),
+        output,
+        closed,
         sampling_aim_rad.unwrap_or_else(|| auto_tolerance_rad(max_rad)),
         sampling_start(control_points),
-        limits.max_samples,
+        limits,
+        time.map(|t| &t.map),
     )
     .map_err(|e| EarthError::new(pointer, e.problem))?;
     let (points_out, alts) = finish_dense(&dense, closed, &params, &distinct.alts);
+    let dense_times = time.map(|t| DenseTimes {
+        unix_s: dense.params.iter().map(|&u| t.map.time(u)).collect(),
+        format: t.map.format,
+        origin: t.origin.clone(),
+    });
 
     let spline_doc = json!({
         "degree": spline.degree(),
@@ -522,10 +747,18 @@ fn finish_fit(
     fields.insert("iterations".into(), json!(iterations));
     fields.insert("converged".into(), json!(converged));
     fields.insert("knots".into(), knots);
-    fields.insert(
-        "parameterization".into(),
-        serde_json::to_value(parameterization).expect("enum serialises"),
-    );
+    match time {
+        Some(t) => {
+            fields.insert("parameterization".into(), json!("time"));
+            fields.insert("time".into(), t.map.to_json(&t.origin));
+        }
+        None => {
+            fields.insert(
+                "parameterization".into(),
+                serde_json::to_value(parameterization).expect("enum serialises"),
+            );
+        }
+    }
     fields.insert("output_points".into(), json!(points_out.len()));
     fields.insert(
         "sampling_deviation_m".into(),
@@ -549,9 +782,35 @@ fn finish_fit(
             },
             points: points_out,
             alts,
+            time: dense_times,
         },
         max_rad,
     ))
+}
+
+/// Samples a curve densely as the output options say; `spacing_s` needs the curve's times.
+fn sample_curve(
+    curve: &dyn crate::sphere::SphericalCurve,
+    output: &OutputOptions,
+    closed: bool,
+    auto_tolerance_rad: f64,
+    start: usize,
+    limits: &Limits,
+    time: Option<&TimeMap>,
+) -> Result<DenseCurve, EarthError> {
+    match (output.sampling, time) {
+        (Sampling::SpacingS(s), Some(map)) => Ok(sample_at(
+            curve,
+            time_parameters(map.duration_s(), s, limits.max_samples)?,
+        )),
+        (sampling, _) => sample(
+            curve,
+            ring_sampling(sampling, closed),
+            auto_tolerance_rad,
+            start,
+            limits.max_samples,
+        ),
+    }
 }
 
 /// How far rounding a control point to `precision` decimals of a degree can move it, in
@@ -591,9 +850,11 @@ pub fn fit_line_to_tolerance(
     tolerance_m: f64,
     output: &OutputOptions,
     limits: &Limits,
+    time: Option<&LineTimeInput<'_>>,
 ) -> Result<CurveOutput, EarthError> {
-    let (line, distinct) = prepare_line(coords, pointer, closed)?;
-    let closed = closed || is_closed_line(&distinct);
+    let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
+    let closed = timed.is_none() && (closed || is_closed_line(&distinct));
+    let given = timed.as_ref().map(|t| t.params.as_slice());
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
     let tol_rad = m_to_rad(tolerance_m);
@@ -619,7 +880,7 @@ pub fn fit_line_to_tolerance(
     topts.degrees.retain(|&p| p <= options.degree.max(1));
     let mut attempt = 0;
     loop {
-        let r = fit_to_tolerance(&points, None, target, &topts).map_err(fit_err)?;
+        let r = fit_to_tolerance(&points, given, target, &topts).map_err(fit_err)?;
         let spline = if closed {
             crate::sphere::fit::seam::close_seam(&r.spline, false).map_err(fit_err)?
         } else {
@@ -659,6 +920,7 @@ pub fn fit_line_to_tolerance(
                 // The margin the fit left for the dense output, so the returned geometry
                 // stays within the tolerance too.
                 sampling_aim_rad: Some(dense_margin),
+                time: timed.as_ref(),
             },
             pointer,
             path.clone(),
@@ -704,6 +966,10 @@ pub fn fit_line_to_tolerance(
         return Ok(out);
     }
 }
+
+/// A fit in time whose two-way distance exceeds this many times its max error (at least
+/// 1 m) is refitted with GLS-PIA, and the curve nearer the line kept (see [`fit_line`]).
+pub const TIME_STRAY_SHARE: f64 = 4.0;
 
 /// Precision of the reported two-way distance, as a share of the tolerance.
 const REPORT_TWO_WAY_PRECISION: f64 = 0.01;
@@ -896,7 +1162,7 @@ pub fn interpolate_line(
     output: &OutputOptions,
     limits: &Limits,
 ) -> Result<CurveOutput, EarthError> {
-    let (line, distinct) = prepare_line(coords, pointer, closed)?;
+    let (line, distinct, _) = prepare_line(coords, pointer, closed, None)?;
     let points = distinct.point_set();
     let opts = InterpolationOptions::default()
         .with_beta1(settings.beta1)
@@ -965,6 +1231,7 @@ pub fn interpolate_line(
         },
         points: points_out,
         alts,
+        time: None,
     })
 }
 
@@ -1076,6 +1343,11 @@ pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, Eart
 ///
 /// # Errors
 /// An invalid document, or output over the limits.
+///
+/// `time` is the stored `time` of a fit in time and its pointer: the dense points then carry
+/// their times (an evaluated line has no altitudes, so the times of a track whose times were
+/// its 4th coordinate go to the property `times`, in unix seconds), and `spacing_s` applies.
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate_curve(
     doc: &Value,
     pointer: &str,
@@ -1084,8 +1356,10 @@ pub fn evaluate_curve(
     known_error_m: Option<f64>,
     output: &OutputOptions,
     limits: &Limits,
+    time: Option<(&Value, &str)>,
 ) -> Result<CurveOutput, EarthError> {
     let curve = curve_from_lonlat_json(doc, pointer)?;
+    let time = time.map(|(v, p)| TimeMap::from_json(v, p)).transpose()?;
     let (start, stored) = match &curve {
         AnyCurve::BSpline(s) => {
             let n = s.control_points().len();
@@ -1097,15 +1371,25 @@ pub fn evaluate_curve(
         }
     };
     let tol = auto_tolerance_rad(m_to_rad(known_error_m.unwrap_or(0.0).max(0.0)));
-    let dense = sample(
+    let dense = sample_curve(
         &curve,
-        ring_sampling(output.sampling, closed),
+        output,
+        closed,
         tol,
         start,
-        limits.max_samples,
+        limits,
+        time.as_ref().map(|(m, _)| m),
     )
     .map_err(|e| EarthError::new(pointer, e.problem))?;
     let (points, alts) = finish_dense(&dense, closed, &[0.0], &[0.0]);
+    let dense_times = time.map(|(map, origin)| DenseTimes {
+        unix_s: dense.params.iter().map(|&u| map.time(u)).collect(),
+        format: map.format,
+        origin: match origin {
+            TimeOrigin::M => TimeOrigin::Property("times".into()),
+            o => o,
+        },
+    });
     let mut fields = Map::new();
     fields.insert("output_points".into(), json!(points.len()));
     fields.insert(
@@ -1128,7 +1412,52 @@ pub fn evaluate_curve(
         },
         points,
         alts,
+        time: dense_times,
     })
+}
+
+/// A stored fit in time: its spline and the map from times to its parameter.
+#[derive(Clone, Debug)]
+pub struct CurveInTime {
+    /// The spline (parameter on [0, 1]).
+    pub spline: SphericalBSpline,
+    /// Times <-> parameter.
+    pub map: TimeMap,
+    /// Where its times came from.
+    pub origin: TimeOrigin,
+}
+
+/// Reads a fit in time: the lon/lat B-spline `doc` at `pointer` and its `time` member.
+///
+/// # Errors
+/// [`Problem::InvalidSpline`] for a bad document, or when `time` is missing (the fit was not
+/// made with `parameterization=time`).
+pub fn curve_in_time(
+    doc: &Value,
+    pointer: &str,
+    time: Option<&Value>,
+    time_pointer: &str,
+) -> Result<CurveInTime, EarthError> {
+    let Some(time) = time else {
+        return Err(EarthError::new(
+            time_pointer,
+            Problem::InvalidSpline(
+                "this fit is not in time (no \"time\" beside the spline): fit with parameterization=time to evaluate at times".into(),
+            ),
+        ));
+    };
+    let (map, origin) = TimeMap::from_json(time, time_pointer)?;
+    match curve_from_lonlat_json(doc, pointer)? {
+        AnyCurve::BSpline(spline) => Ok(CurveInTime {
+            spline,
+            map,
+            origin,
+        }),
+        AnyCurve::Beta(_) => Err(EarthError::new(
+            pointer,
+            Problem::InvalidSpline("a Beta-spline is not a curve in time".into()),
+        )),
+    }
 }
 
 /// Rounds a position for output: degrees to `precision`, altitude to millimetres.
@@ -1194,6 +1523,7 @@ mod tests {
             &opts,
             &out,
             &lim,
+            None,
         )
         .unwrap();
         assert_eq!(r.report.fields["spline"]["degree"], 1);
@@ -1206,6 +1536,7 @@ mod tests {
             &opts,
             &out,
             &lim,
+            None,
         )
         .unwrap_err();
         assert!(matches!(
@@ -1224,6 +1555,7 @@ mod tests {
             &FitOptions::default(),
             &OutputOptions::default(),
             &Limits::default(),
+            None,
         )
         .unwrap_err();
         assert_eq!(e.pointer, "/c/2");
@@ -1247,6 +1579,7 @@ mod tests {
             &FitOptions::default().with_control_points(12),
             &OutputOptions::default(),
             &Limits::default(),
+            None,
         )
         .unwrap();
         assert_eq!(r.points.first(), r.points.last());
@@ -1263,6 +1596,7 @@ mod tests {
             &FitOptions::default(),
             &OutputOptions::default(),
             &Limits::default(),
+            None,
         )
         .unwrap_err();
         assert_eq!(e.pointer, "/c/3");
@@ -1285,6 +1619,7 @@ mod tests {
             &FitOptions::default(),
             &OutputOptions::default(),
             &Limits::default(),
+            None,
         )
         .unwrap();
         assert!(r.has_alt);
@@ -1308,6 +1643,7 @@ mod tests {
             &FitOptions::default().with_control_points(15),
             &OutputOptions::default(),
             &Limits::default(),
+            None,
         )
         .unwrap();
         let doc = &r.report.fields["spline"];

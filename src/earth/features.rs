@@ -11,7 +11,8 @@ use super::curve::{
     compression_ratio, evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line,
     json_kind, output_position,
 };
-use super::curve::{CurveOutput, CurveReport};
+use super::curve::{curve_in_time, CurveOutput, CurveReport, LineTimeInput};
+use super::time::{motion, TimeOrigin, TIME_PROPERTIES};
 use super::{EarthError, Job, Operation, Problem};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
@@ -390,11 +391,11 @@ fn process_feature_at(
     check_bbox(map, pointer)?;
     let result = match &job.operation {
         Operation::Fit(_) | Operation::FitToTolerance { .. } | Operation::Interpolate(_) => {
-            curves_of_geometry(geometry, geometry_pointer, job)?
+            curves_of_geometry(geometry, geometry_pointer, job, (map, pointer))?
         }
         Operation::Evaluate => curves_of_fit(map, pointer, job)?,
     };
-    let Some((geometry_out, info, stats)) = result else {
+    let Some((geometry_out, info, stats, time_props)) = result else {
         return Ok(ProcessedFeature {
             feature: feature.clone(),
             stats: FeatureStats::default(),
@@ -413,6 +414,9 @@ fn process_feature_at(
         _ => Map::new(),
     };
     props.insert(key.into(), info);
+    for (k, v) in time_props {
+        props.insert(k, v);
+    }
     out.insert("properties".into(), Value::Object(props));
     Ok(ProcessedFeature {
         feature: Value::Object(out),
@@ -427,9 +431,118 @@ struct CurveJob<'a> {
     path: Vec<usize>,
     closed: bool,
     known_error_m: Option<f64>,
+    /// For a fit in time: where this line's times are.
+    times: Option<LineTimeInput<'a>>,
+    /// For evaluation: the stored `time` beside the spline, and its pointer.
+    time_doc: Option<(&'a Value, String)>,
 }
 
-type Made = Option<(Value, Value, FeatureStats)>;
+/// Output geometry, `properties.fit` (or ...), counters, and properties to set (the times of
+/// the dense output, under the name they came in).
+type Made = Option<Assembled>;
+
+/// What [`assemble`] makes (see [`Made`]).
+type Assembled = (Value, Value, FeatureStats, Vec<(String, Value)>);
+
+/// Where a feature's times are, for a fit in time.
+#[derive(Clone, Debug)]
+enum FeatureTimes<'a> {
+    /// Not a fit in time.
+    None,
+    /// `properties[name]`, at `pointer`.
+    Property {
+        value: &'a Value,
+        pointer: String,
+        name: String,
+    },
+    /// The 4th coordinate.
+    M,
+}
+
+/// Escapes a key for a JSON pointer (RFC 6901: `~` as `~0`, `/` as `~1`).
+fn pointer_key(k: &str) -> String {
+    k.replace('~', "~0").replace('/', "~1")
+}
+
+/// Finds a feature's times for a fit in time ([`super::time`]).
+fn feature_times<'a>(
+    feature: &'a Map<String, Value>,
+    pointer: &str,
+    job: &Job,
+) -> Result<FeatureTimes<'a>, EarthError> {
+    let Some(source) = &job.time.fit_in_time else {
+        return Ok(FeatureTimes::None);
+    };
+    let props = feature.get("properties").and_then(Value::as_object);
+    let found = |name: &str| {
+        props
+            .and_then(|p| p.get(name))
+            .map(|value| FeatureTimes::Property {
+                value,
+                pointer: format!("{pointer}/properties/{}", pointer_key(name)),
+                name: name.to_string(),
+            })
+    };
+    match source {
+        super::TimeSource::Property(name) => found(name).ok_or_else(|| {
+            EarthError::new(
+                format!("{pointer}/properties"),
+                Problem::InvalidTime(format!(
+                    "no property {name:?} (time_property) holding this feature's times"
+                )),
+            )
+        }),
+        super::TimeSource::Auto => Ok(TIME_PROPERTIES
+            .iter()
+            .find_map(|n| found(n))
+            .unwrap_or(FeatureTimes::M)),
+    }
+}
+
+/// The times of line `part` (`None` for a LineString) of a feature in time.
+fn line_times<'a>(
+    times: &FeatureTimes<'a>,
+    part: Option<usize>,
+) -> Result<Option<LineTimeInput<'a>>, EarthError> {
+    match (times, part) {
+        (FeatureTimes::None, _) => Ok(None),
+        (FeatureTimes::M, _) => Ok(Some(LineTimeInput::M)),
+        (
+            FeatureTimes::Property {
+                value,
+                pointer,
+                name,
+            },
+            None,
+        ) => Ok(Some(LineTimeInput::Property {
+            value,
+            pointer: pointer.clone(),
+            name: name.clone(),
+        })),
+        (
+            FeatureTimes::Property {
+                value,
+                pointer,
+                name,
+            },
+            Some(i),
+        ) => {
+            let v = value.as_array().and_then(|a| a.get(i)).ok_or_else(|| {
+                EarthError::new(
+                    pointer.clone(),
+                    Problem::InvalidTime(format!(
+                        "a MultiLineString's times are one array per line ([[t, ...], [t, ...]]): line {i} has none"
+                    )),
+                )
+            })?;
+            Ok(Some(LineTimeInput::Property {
+                value: v,
+                pointer: format!("{pointer}/{i}"),
+                name: name.clone(),
+            }))
+        }
+    }
+}
 
 fn array_at<'a>(v: &'a Value, pointer: &str, what: &str) -> Result<&'a Vec<Value>, EarthError> {
     v.as_array().ok_or_else(|| {
@@ -441,7 +554,12 @@ fn array_at<'a>(v: &'a Value, pointer: &str, what: &str) -> Result<&'a Vec<Value
 }
 
 /// Fits or interpolates the curves of a geometry; `None` for geometries that pass through.
-fn curves_of_geometry(geometry: &Value, ptr: &str, job: &Job) -> Result<Made, EarthError> {
+fn curves_of_geometry(
+    geometry: &Value,
+    ptr: &str,
+    job: &Job,
+    (feature, feature_pointer): (&Map<String, Value>, &str),
+) -> Result<Made, EarthError> {
     if geometry.is_null() {
         return Ok(None);
     }
@@ -478,28 +596,52 @@ fn curves_of_geometry(geometry: &Value, ptr: &str, job: &Job) -> Result<Made, Ea
     let coords = gmap
         .get("coordinates")
         .ok_or_else(|| invalid(ptr, format!("a {kind} needs \"coordinates\"")))?;
+    // Only a feature with lines needs times: others pass through whatever their properties.
+    let times = &feature_times(feature, feature_pointer, job)?;
+    if !matches!(times, FeatureTimes::None) && kind.ends_with("Polygon") {
+        return Err(EarthError::new(
+            format!("{ptr}/type"),
+            Problem::InvalidTime(format!(
+                "a fit in time (parameterization=time) is for tracks (LineString, MultiLineString); a {kind}'s rings have no time order"
+            )),
+        ));
+    }
     let mut jobs = Vec::new();
-    let mk = |value, pointer, path, closed| CurveJob {
+    let mk = |value, pointer, path, closed, times| CurveJob {
         value,
         pointer,
         path,
         closed,
         known_error_m: None,
+        times,
+        time_doc: None,
     };
     match kind {
-        "LineString" => jobs.push(mk(coords, cptr.clone(), vec![], false)),
+        "LineString" => jobs.push(mk(
+            coords,
+            cptr.clone(),
+            vec![],
+            false,
+            line_times(times, None)?,
+        )),
         "MultiLineString" | "Polygon" => {
             let closed = kind == "Polygon";
             let what = if closed { "rings" } else { "lines" };
             for (i, part) in array_at(coords, &cptr, what)?.iter().enumerate() {
-                jobs.push(mk(part, format!("{cptr}/{i}"), vec![i], closed));
+                jobs.push(mk(
+                    part,
+                    format!("{cptr}/{i}"),
+                    vec![i],
+                    closed,
+                    line_times(times, Some(i))?,
+                ));
             }
         }
         _ => {
             for (i, poly) in array_at(coords, &cptr, "polygons")?.iter().enumerate() {
                 let pptr = format!("{cptr}/{i}");
                 for (r, ring) in array_at(poly, &pptr, "rings")?.iter().enumerate() {
-                    jobs.push(mk(ring, format!("{pptr}/{r}"), vec![i, r], true));
+                    jobs.push(mk(ring, format!("{pptr}/{r}"), vec![i, r], true, None));
                 }
             }
         }
@@ -605,7 +747,11 @@ fn check_nested_positions(v: &Value, ptr: &str, depth: usize) -> Result<(), Eart
 
 /// Reads the curves stored in `properties.fit` (or `properties.interpolation`) for evaluation;
 /// `None` when the feature has none.
-fn curves_of_fit(feature: &Map<String, Value>, ptr: &str, job: &Job) -> Result<Made, EarthError> {
+fn curves_of_fit<'a>(
+    feature: &'a Map<String, Value>,
+    ptr: &str,
+    job: &Job,
+) -> Result<Made, EarthError> {
     let props = match feature.get("properties") {
         Some(Value::Object(p)) => p,
         _ => return Ok(None),
@@ -620,6 +766,7 @@ fn curves_of_fit(feature: &Map<String, Value>, ptr: &str, job: &Job) -> Result<M
     let info = &props[key];
     let iptr = format!("{ptr}/properties/{key}");
     let known = |v: &Value| v.get("max_error_m").and_then(Value::as_f64);
+    let time_of = |v: &'a Value, p: &str| v.get("time").map(|t| (t, format!("{p}/time")));
     if let Some(doc) = info.get(doc_key) {
         let jobs = vec![CurveJob {
             value: doc,
@@ -627,7 +774,12 @@ fn curves_of_fit(feature: &Map<String, Value>, ptr: &str, job: &Job) -> Result<M
             path: vec![],
             closed: false,
             known_error_m: known(info),
+            times: None,
+            time_doc: time_of(info, &iptr),
         }];
+        if let Some(at) = &job.time.at_unix_s {
+            return evaluate_at(&jobs, &iptr, at, job).map(Some);
+        }
         let outputs = run_curves(&jobs, job)?;
         return assemble("LineString", outputs, job).map(Some);
     }
@@ -680,6 +832,8 @@ fn curves_of_fit(feature: &Map<String, Value>, ptr: &str, job: &Job) -> Result<M
             path,
             closed: kind.ends_with("Polygon"),
             known_error_m: known(part),
+            times: None,
+            time_doc: time_of(part, &pptr),
         });
     }
     if jobs.is_empty() {
@@ -687,6 +841,9 @@ fn curves_of_fit(feature: &Map<String, Value>, ptr: &str, job: &Job) -> Result<M
     }
     // Parts in geometry order, whatever order the document lists them in.
     jobs.sort_by(|a, b| a.path.cmp(&b.path));
+    if let Some(at) = &job.time.at_unix_s {
+        return evaluate_at(&jobs, &iptr, at, job).map(Some);
+    }
     let outputs = run_curves(&jobs, job)?;
     assemble(kind, outputs, job).map(Some)
 }
@@ -746,6 +903,7 @@ fn one_curve(c: &CurveJob<'_>, job: &Job) -> Result<CurveOutput, EarthError> {
             o,
             &job.output,
             &job.limits,
+            c.times.as_ref(),
         ),
         Operation::FitToTolerance {
             options,
@@ -759,6 +917,7 @@ fn one_curve(c: &CurveJob<'_>, job: &Job) -> Result<CurveOutput, EarthError> {
             *tolerance_m,
             &job.output,
             &job.limits,
+            c.times.as_ref(),
         ),
         Operation::Interpolate(s) => interpolate_line(
             c.value,
@@ -777,6 +936,7 @@ fn one_curve(c: &CurveJob<'_>, job: &Job) -> Result<CurveOutput, EarthError> {
             c.known_error_m,
             &job.output,
             &job.limits,
+            c.time_doc.as_ref().map(|(v, p)| (*v, p.as_str())),
         ),
     }
 }
@@ -790,11 +950,7 @@ fn positions_json(ps: &[Position], has_alt: bool, precision: u32) -> Value {
 }
 
 /// Builds the output geometry, the properties object and the stats from fitted curves.
-fn assemble(
-    kind: &str,
-    outputs: Vec<CurveOutput>,
-    job: &Job,
-) -> Result<(Value, Value, FeatureStats), EarthError> {
+fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assembled, EarthError> {
     let precision = job.output.precision;
     // A curve whose knots or parameters under- or overflow samples to non-finite points; that
     // is the input's fault and is said so (never `null` coordinates or an empty geometry).
@@ -813,12 +969,46 @@ fn assemble(
             ));
         }
     }
+    // Times of the dense output kept in a property: one array per output line.
+    let mut time_pieces: Vec<Value> = Vec::new();
+    let mut time_name: Option<String> = None;
     let geometry = match kind {
         "LineString" | "MultiLineString" => {
             let mut pieces = Vec::new();
             for c in &outputs {
-                for piece in cut_line(&c.points, &c.alts) {
-                    pieces.push(positions_json(&piece, c.has_alt, precision));
+                let cut = cut_line(&c.points, &c.alts);
+                let Some(t) = &c.time else {
+                    for piece in cut {
+                        pieces.push(positions_json(&piece, c.has_alt, precision));
+                    }
+                    continue;
+                };
+                // The same cut with the times in the place of the altitudes: the same pieces,
+                // with the times interpolated where a piece meets the antimeridian.
+                let cut_t = cut_line(&c.points, &t.unix_s);
+                for (piece, tp) in cut.iter().zip(&cut_t) {
+                    match &t.origin {
+                        TimeOrigin::M => pieces.push(Value::Array(
+                            piece
+                                .iter()
+                                .zip(tp)
+                                .map(|(p, q)| {
+                                    let mut v = output_position(p, true, precision);
+                                    if let Value::Array(a) = &mut v {
+                                        a.push(t.format.write(q[2]));
+                                    }
+                                    v
+                                })
+                                .collect(),
+                        )),
+                        TimeOrigin::Property(name) => {
+                            pieces.push(positions_json(piece, c.has_alt, precision));
+                            time_name = Some(name.clone());
+                            time_pieces.push(Value::Array(
+                                tp.iter().map(|q| t.format.write(q[2])).collect(),
+                            ));
+                        }
+                    }
                 }
             }
             if kind == "LineString" && pieces.len() == 1 {
@@ -879,7 +1069,102 @@ fn assemble(
         stats.max_error_m = stats.max_error_m.max(c.report.max_error_m);
     }
     let info = properties_object(kind, outputs.into_iter().map(|c| c.report).collect(), job);
-    Ok((geometry, info, stats))
+    let mut extra = Vec::new();
+    if let Some(name) = time_name {
+        let value = if geometry["type"] == "LineString" && time_pieces.len() == 1 {
+            time_pieces.pop().expect("one piece")
+        } else {
+            Value::Array(time_pieces)
+        };
+        extra.push((name, value));
+    }
+    Ok((geometry, info, stats, extra))
+}
+
+/// Rounds a speed (m/s) to 0.1 mm/s and a heading to a thousandth of a degree for output.
+fn round_motion(speed_mps: f64, heading_deg: f64) -> (f64, f64) {
+    (
+        super::lonlat::round_to(speed_mps, 4),
+        super::lonlat::round_to(heading_deg, 3) % 360.0,
+    )
+}
+
+/// Evaluates the fits in time of one feature at the times `at` (unix seconds): a MultiPoint of
+/// the positions in the order asked, and `properties.evaluation` with the times (`at`, in the
+/// fit's convention), `speed_mps` and `heading_deg` from the curve's derivative. Each time is
+/// taken on the first part whose times span it.
+fn evaluate_at(
+    jobs: &[CurveJob<'_>],
+    info_pointer: &str,
+    at: &[f64],
+    job: &Job,
+) -> Result<Assembled, EarthError> {
+    let mut curves = Vec::with_capacity(jobs.len());
+    for c in jobs {
+        let (time, time_pointer) = match &c.time_doc {
+            Some((v, p)) => (Some(*v), p.clone()),
+            None => (None, info_pointer.to_string()),
+        };
+        curves.push(curve_in_time(c.value, &c.pointer, time, &time_pointer)?);
+    }
+    let first = &curves[0];
+    let format = first.map.format;
+    let name = match &first.origin {
+        TimeOrigin::Property(n) => n.clone(),
+        TimeOrigin::M => "times".to_string(),
+    };
+    let precision = job.output.precision;
+    let (mut coords, mut times, mut speeds, mut headings) = (vec![], vec![], vec![], vec![]);
+    for &t in at {
+        let Some(c) = curves
+            .iter()
+            .find(|c| c.map.start_unix_s <= t && t <= c.map.end_unix_s)
+        else {
+            let spans: Vec<String> = curves
+                .iter()
+                .map(|c| {
+                    format!(
+                        "{} to {}",
+                        c.map.format.write(c.map.start_unix_s),
+                        c.map.format.write(c.map.end_unix_s)
+                    )
+                })
+                .collect();
+            return Err(EarthError::new(
+                info_pointer,
+                Problem::InvalidTime(format!(
+                    "at={} is outside this track's times ({}): a track is not extrapolated",
+                    format.write(t),
+                    spans.join(", ")
+                )),
+            ));
+        };
+        let m = motion(&c.spline, &c.map, t);
+        let (lon, lat) = super::lonlat::unit_to_lonlat(&m.point);
+        coords.push(output_position(&[lon, lat, 0.0], false, precision));
+        times.push(format.write(t));
+        let (sp, hd) = round_motion(m.speed_mps, m.heading_deg);
+        speeds.push(json!(sp));
+        headings.push(json!(hd));
+    }
+    let n = coords.len();
+    let info = json!({
+        "output_points": n,
+        "at": times,
+        "speed_mps": speeds,
+        "heading_deg": headings,
+    });
+    let stats = FeatureStats {
+        curves: curves.len(),
+        output_points: n,
+        ..FeatureStats::default()
+    };
+    Ok((
+        json!({"type": "MultiPoint", "coordinates": coords}),
+        info,
+        stats,
+        vec![(name, Value::Array(times))],
+    ))
 }
 
 /// `properties.fit` (or `interpolation`, `evaluation`): a LineString's fields directly; for
@@ -941,7 +1226,11 @@ fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> Va
         }
         out.insert(
             "parameterization".into(),
-            serde_json::to_value(o.parameterization).expect("enum serialises"),
+            if job.time.fit_in_time.is_some() {
+                json!("time")
+            } else {
+                serde_json::to_value(o.parameterization).expect("enum serialises")
+            },
         );
     }
     out.insert(
@@ -985,13 +1274,23 @@ pub fn evaluate_spline_document(
         path: vec![],
         closed: false,
         known_error_m: None,
+        times: None,
+        time_doc: None,
     }];
+    if job.time.at_unix_s.is_some() {
+        return Err(EarthError::new(
+            pointer,
+            Problem::InvalidSpline(
+                "a bare spline document has no times: evaluate the Feature of a fit made with parameterization=time to evaluate at times".into(),
+            ),
+        ));
+    }
     let evaluate = Job {
         operation: Operation::Evaluate,
         ..job.clone()
     };
     let outputs = run_curves(&jobs, &evaluate)?;
-    let (geometry, info, stats) = assemble("LineString", outputs, job)?;
+    let (geometry, info, stats, _) = assemble("LineString", outputs, job)?;
     Ok(ProcessedFeature {
         feature: json!({"type": "Feature", "properties": {"evaluation": info}, "geometry": geometry}),
         stats,

@@ -8,6 +8,8 @@
 //! * [`sampling`]: dense output of a curve (`samples`, `spacing_m`, or automatic).
 //! * [`curve`]: one line or ring: positions parsed and checked, repeats dropped, fitted.
 //! * [`features`]: GeoJSON documents walked feature by feature ([`process_feature`]).
+//! * [`time`]: tracks in time: times read from the properties or the 4th coordinate and
+//!   checked, the map between times and the curve parameter, speed and heading.
 //!
 //! # What happens to a GeoJSON document
 //! * LineString and each part of a MultiLineString is fitted on its own; each Polygon and
@@ -24,6 +26,11 @@
 //!   copy) still counts in the metrics and in `input_points`. When fewer distinct positions
 //!   remain than `degree + 1`, the degree is lowered to `distinct - 1`; one distinct position
 //!   is an error.
+//! * With [`TimeOptions::fit_in_time`] (`parameterization=time`) a line is fitted as position
+//!   against time: each position's parameter is its time mapped to [0, 1] (never moved), so its
+//!   error is the synchronized distance; only records repeated exactly (same time, same
+//!   position) are dropped, a line ending where it starts stays open, and the dense output
+//!   carries its times where the input had them ([`time`]).
 //! * Errors are parametric geodesic distances in metres (METHOD.md): the distance from each
 //!   input point to the curve at that point's parameter, measured with the spline as returned
 //!   (control points rounded to `precision`).
@@ -48,6 +55,7 @@ pub mod curve;
 pub mod features;
 pub mod lonlat;
 pub mod sampling;
+pub mod time;
 
 pub use features::{
     evaluate_spline_document, process_feature, process_geometry, Document, FeatureSlot,
@@ -55,6 +63,7 @@ pub use features::{
 };
 pub use lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, unit_to_lonlat, LonLat, EARTH_RADIUS_M};
 pub use sampling::Sampling;
+pub use time::{TimeFormat, TimeMap, TimeSource};
 
 use crate::sphere::cancel::Cancel;
 use crate::sphere::{FitOptions, SphereError};
@@ -145,6 +154,18 @@ impl Default for OutputOptions {
     }
 }
 
+/// Fitting and evaluating tracks in time ([`time`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TimeOptions {
+    /// `parameterization=time`: fit position as a function of time, reading the times from
+    /// here (lines only). The bound of a `tolerance_m` fit is then the synchronized distance:
+    /// every position within the tolerance of the curve at its own time.
+    pub fit_in_time: Option<TimeSource>,
+    /// `at=`: evaluate stored fits in time at these unix times (positions, speed, heading)
+    /// instead of sampling them densely. Evaluation only.
+    pub at_unix_s: Option<Vec<f64>>,
+}
+
 /// Everything [`process_feature`] needs: the operation, the output options, the limits and a
 /// cancellation token (checked before each curve and inside the fitters).
 #[derive(Clone, Debug, PartialEq)]
@@ -158,6 +179,8 @@ pub struct Job {
     /// Stops the work ([`Problem::Fit`] with [`SphereError::Cancelled`]) when cancelled or past
     /// its deadline; the default inherits the token entered on the calling thread.
     pub cancel: Cancel,
+    /// Fits in time and evaluation at times.
+    pub time: TimeOptions,
 }
 
 impl Operation {
@@ -178,6 +201,7 @@ impl Job {
             output: OutputOptions::default(),
             limits: Limits::default(),
             cancel: Cancel::inherit(),
+            time: TimeOptions::default(),
         }
     }
 
@@ -188,6 +212,7 @@ impl Job {
             output: OutputOptions::default(),
             limits: Limits::default(),
             cancel: Cancel::inherit(),
+            time: TimeOptions::default(),
         }
     }
 
@@ -198,6 +223,7 @@ impl Job {
             output: OutputOptions::default(),
             limits: Limits::default(),
             cancel: Cancel::inherit(),
+            time: TimeOptions::default(),
         }
     }
 
@@ -216,6 +242,18 @@ impl Job {
     /// Sets the limits.
     pub fn with_limits(mut self, limits: Limits) -> Job {
         self.limits = limits;
+        self
+    }
+
+    /// Fits position as a function of time, with times from `source` (`parameterization=time`).
+    pub fn in_time(mut self, source: TimeSource) -> Job {
+        self.time.fit_in_time = Some(source);
+        self
+    }
+
+    /// Evaluates at these unix times (`at=`).
+    pub fn at_times(mut self, unix_s: Vec<f64>) -> Job {
+        self.time.at_unix_s = Some(unix_s);
         self
     }
 
@@ -276,6 +314,64 @@ impl Job {
                         format!("{s}: the spacing must be a positive number of metres"),
                     );
                 }
+            }
+            Sampling::SpacingS(s) => {
+                if !(s.is_finite() && s > 0.0) {
+                    return bad(
+                        "spacing_s",
+                        format!("{s}: the spacing must be a positive number of seconds"),
+                    );
+                }
+                let in_time = match &self.operation {
+                    Operation::Evaluate => true,
+                    Operation::Fit(_) | Operation::FitToTolerance { .. } => {
+                        self.time.fit_in_time.is_some()
+                    }
+                    Operation::Interpolate(_) => false,
+                };
+                if !in_time {
+                    return bad(
+                        "spacing_s",
+                        "spacing in seconds needs a curve in time: fit with parameterization=time"
+                            .into(),
+                    );
+                }
+            }
+        }
+        if let Some(TimeSource::Property(name)) = &self.time.fit_in_time {
+            if name.is_empty() {
+                return bad("time_property", "the property name is empty".into());
+            }
+        }
+        if self.time.fit_in_time.is_some() && self.operation.fit_options().is_none() {
+            return bad(
+                "parameterization",
+                "only a fit can be in time (parameterization=time)".into(),
+            );
+        }
+        if let Some(at) = &self.time.at_unix_s {
+            if !matches!(self.operation, Operation::Evaluate) {
+                return bad("at", "times to evaluate at are for evaluation only".into());
+            }
+            if at.is_empty() || at.len() > self.limits.max_samples {
+                return bad(
+                    "at",
+                    format!(
+                        "{} times: give 1 to {} (the server's limit)",
+                        at.len(),
+                        self.limits.max_samples
+                    ),
+                );
+            }
+            if let Some(t) = at.iter().find(|t| !t.is_finite()) {
+                return bad("at", format!("{t} is not a finite time"));
+            }
+            if self.output.sampling != Sampling::Auto {
+                return bad(
+                    "at",
+                    "at gives the output positions itself: leave out samples, spacing_m and spacing_s"
+                        .into(),
+                );
             }
         }
         match &self.operation {
@@ -434,6 +530,10 @@ pub enum Problem {
         /// Why it is not allowed.
         message: String,
     },
+    /// Times of a track that cannot be used: missing, not one per position, not RFC 3339 or
+    /// unix seconds, or not increasing.
+    #[error("{0}")]
+    InvalidTime(String),
     /// A spline document (for `evaluate`) that does not describe a valid spline.
     #[error("{0}")]
     InvalidSpline(String),
@@ -443,6 +543,49 @@ pub enum Problem {
     /// Beta-spline interpolation could not pass through every position.
     #[error("{0}")]
     Interpolation(SphereError),
+}
+
+/// Parses `-?digits(.digits)?([eE][+-]?digits)?` (also `.5` and `5.`), a number as JSON
+/// writes it; anything else (`inf`, `NaN`, `+1`, spaces) is `None`.
+pub fn parse_json_number(s: &str) -> Option<f64> {
+    let b = s.as_bytes();
+    let mut i = 0;
+    if b.first() == Some(&b'-') {
+        i += 1;
+    }
+    let int_start = i;
+    while i < b.len() && b[i].is_ascii_digit() {
+        i += 1;
+    }
+    let mut digits = i - int_start;
+    if i < b.len() && b[i] == b'.' {
+        i += 1;
+        let frac_start = i;
+        while i < b.len() && b[i].is_ascii_digit() {
+            i += 1;
+        }
+        digits += i - frac_start;
+    }
+    if digits == 0 {
+        return None;
+    }
+    if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+        i += 1;
+        if i < b.len() && (b[i] == b'+' || b[i] == b'-') {
+            i += 1;
+        }
+        let exp_start = i;
+        while i < b.len() && b[i].is_ascii_digit() {
+            i += 1;
+        }
+        if i == exp_start {
+            return None;
+        }
+    }
+    if i != b.len() {
+        return None;
+    }
+    s.parse().ok()
 }
 
 /// A count for a message: "more than 10^18" for counts that saturated.
@@ -467,6 +610,7 @@ impl Problem {
             Problem::TooManySamples { .. } => "too-many-samples",
             Problem::InvalidOption { .. } => "invalid-option",
             Problem::InvalidSpline(_) => "invalid-spline",
+            Problem::InvalidTime(_) => "invalid-time",
             Problem::Fit(SphereError::Cancelled) => "cancelled",
             Problem::Fit(SphereError::NonFinite { .. }) => "non-finite",
             Problem::Fit(_) => "unfittable",

@@ -42,6 +42,8 @@ pub enum Sampling {
     Samples(usize),
     /// About this many metres between output points.
     SpacingM(f64),
+    /// A curve in time sampled every this many seconds from its start (and at its end).
+    SpacingS(f64),
     /// At most `spacing_m` metres apart and at least `samples` points.
     SpacingAndSamples {
         /// Largest distance between output points, metres.
@@ -130,10 +132,57 @@ pub fn sample(
             let ts = by_arc_length(curve, m_to_rad(spacing_m), samples, start, max_samples)?;
             Ok(finish(curve, ts))
         }
+        // Only a curve in time knows its seconds (`sample_in_time`).
+        Sampling::SpacingS(_) => Err(EarthError::new(
+            "",
+            Problem::InvalidOption {
+                option: "spacing_s",
+                message: "this curve is not in time: fit with parameterization=time".into(),
+            },
+        )),
         // Certified halving needs no evenly spaced start: the ends and the curve's breaks
         // (knots, joints) are where it begins, so a polyline comes out as its vertices.
         Sampling::Auto => Ok(adaptive(curve, auto_tolerance_rad, 2, max_samples)),
     }
+}
+
+/// Curve parameters every `spacing_s` seconds of a curve spanning `duration_s` seconds on
+/// `[0, 1]`, its end included; the count is checked against `max_samples` before the list is
+/// made.
+///
+/// # Errors
+/// [`Problem::InvalidOption`] naming `spacing_s`.
+pub fn time_parameters(
+    duration_s: f64,
+    spacing_s: f64,
+    max_samples: usize,
+) -> Result<Vec<f64>, EarthError> {
+    let steps = (duration_s / spacing_s).floor();
+    let needed_f = steps + 2.0;
+    if needed_f.is_nan() || needed_f > max_samples.max(2) as f64 {
+        return Err(EarthError::new(
+            "",
+            Problem::InvalidOption {
+                option: "spacing_s",
+                message: format!(
+                    "{} output points needed for {duration_s} s, more than the limit of {max_samples} per line: use a larger spacing_s",
+                    if needed_f.is_finite() { format!("{needed_f}") } else { "too many".into() }
+                ),
+            },
+        ));
+    }
+    let steps = steps as usize;
+    let mut ts: Vec<f64> = (0..=steps)
+        .map(|k| k as f64 * spacing_s / duration_s)
+        .filter(|&u| u < 1.0)
+        .collect();
+    ts.push(1.0);
+    Ok(ts)
+}
+
+/// A curve sampled at the given parameters.
+pub fn sample_at(curve: &dyn SphericalCurve, ts: Vec<f64>) -> DenseCurve {
+    finish(curve, ts)
 }
 
 fn finish(curve: &dyn SphericalCurve, ts: Vec<f64>) -> DenseCurve {

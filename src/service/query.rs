@@ -3,12 +3,15 @@
 //! parameter. Values that parse but are out of range are checked later (422 `invalid-option`).
 
 use super::error::ApiError;
-use crate::earth::{InterpolateSettings, Job, Limits, Operation, OutputOptions, Sampling};
+use crate::earth::{
+    InterpolateSettings, Job, Limits, Operation, OutputOptions, Sampling, TimeOptions, TimeSource,
+};
 use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
 use std::collections::BTreeMap;
 use std::str::FromStr;
 
 /// Query pairs checked against an allowed list.
+#[derive(Clone)]
 pub struct Params {
     map: BTreeMap<String, String>,
 }
@@ -100,6 +103,18 @@ impl Params {
     pub fn has(&self, name: &str) -> bool {
         self.map.contains_key(name)
     }
+
+    /// The raw value of `name`, if given.
+    pub fn raw(&self, name: &str) -> Option<&str> {
+        self.map.get(name).map(String::as_str)
+    }
+
+    /// These parameters without `name`.
+    fn without(&self, name: &str) -> Params {
+        let mut map = self.map.clone();
+        map.remove(name);
+        Params { map }
+    }
 }
 
 const INTEGER: &str = "a non-negative integer";
@@ -109,47 +124,10 @@ fn is_decimal_integer(s: &str) -> bool {
     !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())
 }
 
-/// Parses `-?digits(.digits)?([eE][+-]?digits)?` (also `.5` and `5.`), the grammar the
+/// Parses a number as JSON writes it ([`crate::earth::parse_json_number`]), the grammar the
 /// OpenAPI `number` parameters promise; anything else is `None`.
 pub fn parse_number(s: &str) -> Option<f64> {
-    let b = s.as_bytes();
-    let mut i = 0;
-    if b.first() == Some(&b'-') {
-        i += 1;
-    }
-    let int_start = i;
-    while i < b.len() && b[i].is_ascii_digit() {
-        i += 1;
-    }
-    let mut digits = i - int_start;
-    if i < b.len() && b[i] == b'.' {
-        i += 1;
-        let frac_start = i;
-        while i < b.len() && b[i].is_ascii_digit() {
-            i += 1;
-        }
-        digits += i - frac_start;
-    }
-    if digits == 0 {
-        return None;
-    }
-    if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
-        i += 1;
-        if i < b.len() && (b[i] == b'+' || b[i] == b'-') {
-            i += 1;
-        }
-        let exp_start = i;
-        while i < b.len() && b[i].is_ascii_digit() {
-            i += 1;
-        }
-        if i == exp_start {
-            return None;
-        }
-    }
-    if i != b.len() {
-        return None;
-    }
-    s.parse().ok()
+    crate::earth::parse_json_number(s)
 }
 
 /// Parameters of `/v1/fit`.
@@ -162,14 +140,16 @@ pub const FIT_PARAMS: &[&str] = &[
     "solver",
     "parameter_correction",
     "tolerance_m",
+    "time_property",
     "samples",
     "spacing_m",
+    "spacing_s",
     "precision",
 ];
 /// Parameters of `/v1/interpolate`.
 pub const INTERPOLATE_PARAMS: &[&str] = &["beta1", "beta2", "samples", "spacing_m", "precision"];
 /// Parameters of `/v1/evaluate`.
-pub const EVALUATE_PARAMS: &[&str] = &["samples", "spacing_m", "precision"];
+pub const EVALUATE_PARAMS: &[&str] = &["samples", "spacing_m", "spacing_s", "at", "precision"];
 /// Parameters of `/v1/sphere/fit`.
 pub const SPHERE_FIT_PARAMS: &[&str] = &[
     "control_points",
@@ -190,6 +170,20 @@ pub const SPHERE_INTERPOLATE_PARAMS: &[&str] = &["beta1", "beta2"];
 fn output_options(p: &Params) -> Result<OutputOptions, ApiError> {
     let samples = p.int("samples")?;
     let spacing = p.num("spacing_m")?;
+    let spacing_s = p.num("spacing_s")?;
+    if let Some(s) = spacing_s {
+        if samples.is_some() || spacing.is_some() {
+            return Err(ApiError::unprocessable(
+                "conflicting-options",
+                "spacing_s excludes samples and spacing_m: give one way of sampling".to_string(),
+            )
+            .param("spacing_s"));
+        }
+        return Ok(OutputOptions {
+            sampling: Sampling::SpacingS(s),
+            precision: precision(p)?,
+        });
+    }
     let sampling = match (samples, spacing) {
         (Some(n), Some(s)) => Sampling::SpacingAndSamples {
             spacing_m: s,
@@ -201,11 +195,58 @@ fn output_options(p: &Params) -> Result<OutputOptions, ApiError> {
     };
     Ok(OutputOptions {
         sampling,
-        precision: match p.int("precision")? {
-            Some(n) => u32::try_from(n).unwrap_or(u32::MAX),
-            None => crate::earth::DEFAULT_PRECISION,
-        },
+        precision: precision(p)?,
     })
+}
+
+fn precision(p: &Params) -> Result<u32, ApiError> {
+    Ok(match p.int("precision")? {
+        Some(n) => u32::try_from(n).unwrap_or(u32::MAX),
+        None => crate::earth::DEFAULT_PRECISION,
+    })
+}
+
+/// `parameterization=time` (with `time_property`; either of those or `spacing_s` on a fit
+/// implies it) and `at`, and the parameters left for the fit options.
+fn time_options(p: &Params, fit: bool) -> Result<(TimeOptions, Params), ApiError> {
+    let mut t = TimeOptions::default();
+    // `time_property` and (on /v1/fit) `spacing_s` mean a fit in time: they imply
+    // parameterization=time, and conflict with any other.
+    let implied = ["time_property", "spacing_s"]
+        .into_iter()
+        .find(|k| p.has(k) && (*k == "time_property" || fit));
+    let in_time = match (p.raw("parameterization"), implied) {
+        (Some("time"), _) | (None, Some(_)) => true,
+        (Some(other), Some(k)) => {
+            return Err(ApiError::unprocessable(
+                "conflicting-options",
+                format!("{k} is for a fit in time: it excludes parameterization={other}"),
+            )
+            .param(k))
+        }
+        _ => false,
+    };
+    if in_time {
+        t.fit_in_time = Some(match p.raw("time_property") {
+            Some(name) => TimeSource::Property(name.to_string()),
+            None => TimeSource::Auto,
+        });
+    }
+    if let Some(v) = p.raw("at") {
+        let at = crate::earth::time::parse_time_list(v).map_err(|m| {
+            ApiError::invalid_query(
+                "at",
+                format!("at={v:?}: {m} (give RFC 3339 times or unix seconds, comma-separated)"),
+            )
+        })?;
+        t.at_unix_s = Some(at);
+    }
+    let rest = if in_time {
+        p.without("parameterization")
+    } else {
+        p.clone()
+    };
+    Ok((t, rest))
 }
 
 /// Fit options from the query over `base` (shared by `/v1/fit`, whose defaults are
@@ -224,9 +265,10 @@ pub fn fit_options(p: &Params, base: FitOptions) -> Result<FitOptions, ApiError>
     if let Some(i) = p.int("iterations")? {
         o.iterations = i;
     }
-    if let Some(x) =
-        p.get::<Parameterization>("parameterization", "chord, centripetal or uniform")?
-    {
+    if let Some(x) = p.get::<Parameterization>(
+        "parameterization",
+        "chord, centripetal, uniform or (GeoJSON) time",
+    )? {
         o.parameterization = x;
     }
     if let Some(s) = p.get::<Solver>("solver", "gls-pia or gauss-newton")? {
@@ -289,6 +331,7 @@ pub fn geo_job(
         GeoEndpoint::Evaluate => (EVALUATE_PARAMS, Some(Operation::Evaluate)),
     };
     let p = Params::new(pairs, allowed)?;
+    let (time, p) = time_options(&p, endpoint == GeoEndpoint::Fit)?;
     let operation = match (endpoint, operation) {
         (_, Some(op)) => op,
         (GeoEndpoint::Fit, None) => match tolerance(&p, "tolerance_m")? {
@@ -311,6 +354,7 @@ pub fn geo_job(
         output: output_options(&p)?,
         limits: limits.clone(),
         cancel: Default::default(),
+        time,
     };
     job.validate().map_err(ApiError::from)?;
     Ok(job)
@@ -409,5 +453,66 @@ mod tests {
         let job = geo_job(vec![], GeoEndpoint::Fit, &Limits::default()).unwrap();
         assert_eq!(job.operation, Operation::Fit(FitOptions::faithful()));
         assert_eq!(job.output, OutputOptions::default());
+    }
+
+    #[test]
+    fn time_options_are_read_and_implied() {
+        let l = Limits::default();
+        let job = geo_job(pairs(&[("parameterization", "time")]), GeoEndpoint::Fit, &l).unwrap();
+        assert_eq!(job.time.fit_in_time, Some(TimeSource::Auto));
+        // parameterization=time is not a math-core parameterisation: the fit options keep theirs.
+        assert_eq!(
+            job.operation.fit_options().unwrap().parameterization,
+            FitOptions::faithful().parameterization
+        );
+        let job = geo_job(pairs(&[("time_property", "when")]), GeoEndpoint::Fit, &l).unwrap();
+        assert_eq!(
+            job.time.fit_in_time,
+            Some(TimeSource::Property("when".into()))
+        );
+        let job = geo_job(pairs(&[("spacing_s", "30")]), GeoEndpoint::Fit, &l).unwrap();
+        assert_eq!(
+            (job.time.fit_in_time, job.output.sampling),
+            (Some(TimeSource::Auto), Sampling::SpacingS(30.0))
+        );
+        let e = geo_job(
+            pairs(&[("parameterization", "chord"), ("spacing_s", "30")]),
+            GeoEndpoint::Fit,
+            &l,
+        )
+        .unwrap_err();
+        assert_eq!(
+            (e.status.as_u16(), e.parameter.as_deref()),
+            (422, Some("spacing_s"))
+        );
+        let e = geo_job(
+            pairs(&[("spacing_s", "30"), ("samples", "10")]),
+            GeoEndpoint::Evaluate,
+            &l,
+        )
+        .unwrap_err();
+        assert_eq!(e.status.as_u16(), 422);
+        let job = geo_job(
+            pairs(&[("at", "1,2010-10-03T09:36:30Z")]),
+            GeoEndpoint::Evaluate,
+            &l,
+        )
+        .unwrap();
+        assert_eq!(job.time.at_unix_s, Some(vec![1.0, 1286098590.0]));
+        let e = geo_job(pairs(&[("at", "1,,2")]), GeoEndpoint::Evaluate, &l).unwrap_err();
+        assert_eq!(
+            (e.status.as_u16(), e.parameter.as_deref()),
+            (400, Some("at"))
+        );
+        let e = geo_job(pairs(&[("spacing_s", "0")]), GeoEndpoint::Evaluate, &l).unwrap_err();
+        assert_eq!(
+            (e.status.as_u16(), e.parameter.as_deref()),
+            (422, Some("spacing_s"))
+        );
+        let e = geo_job(pairs(&[("at", "1")]), GeoEndpoint::Fit, &l).unwrap_err();
+        assert_eq!(e.status.as_u16(), 400, "at is not a fit parameter");
+        // The S^n fit knows no time.
+        let p = Params::new(pairs(&[("parameterization", "time")]), SPHERE_FIT_PARAMS).unwrap();
+        assert!(fit_options(&p, FitOptions::default()).is_err());
     }
 }

@@ -16,5 +16,6 @@ mod http_openapi;
 mod http_port;
 mod paper_reproduction;
 mod sphere_properties;
+mod time;
 mod tolerance;
 mod two_way;

@@ -12,7 +12,7 @@
 //! O(n log n) on typical lines, O(n²) in the worst case, like the planar algorithm.
 
 use crate::sphere::geometry::point::{
-    angle, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
+    angle, angle_between, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
 };
 
 /// Arcs shorter than this are treated as a point: the plane they span is undefined to rounding
@@ -254,6 +254,77 @@ pub fn douglas_peucker_ordered(points: &PointSet, tolerance_rad: f64) -> Vec<usi
         }
         (0..n).filter(|&i| keep[i]).collect()
     })
+}
+
+/// Time-aware Douglas–Peucker (TD-TR, Meratnia & de By 2004): the indices of the points kept
+/// so that every point is within `tolerance_rad` of the simplified track *at its own
+/// parameter* (its time): the synchronized distance of point `j` between kept `a` and `b` is its
+/// distance to the SLERP from `a` to `b` at `(t_j − t_a) / (t_b − t_a)`.
+///
+/// `params` must not decrease; a segment whose ends share a parameter measures each point
+/// against its start. The recursion runs on an explicit stack as [`douglas_peucker`]'s does;
+/// (nearly) antipodal kept neighbours are split at the middle.
+///
+/// # Panics
+/// If `params` is not one per point.
+///
+/// # Example
+/// ```
+/// use spherefit::sphere::{simplify::synchronized_douglas_peucker, PointSet};
+/// // Five points on one great circle, but the middle one is late: only time shows it.
+/// let rows: Vec<[f64; 3]> = (0..5).map(|i| { let a = 0.1 * i as f64; [a.cos(), a.sin(), 0.0] }).collect();
+/// let line = PointSet::try_from_rows(&rows).unwrap();
+/// assert_eq!(synchronized_douglas_peucker(&line, &[0.0, 1.0, 2.0, 3.0, 4.0], 1e-9), vec![0, 4]);
+/// assert_eq!(synchronized_douglas_peucker(&line, &[0.0, 1.0, 3.0, 3.5, 4.0], 1e-9).len(), 4);
+/// ```
+pub fn synchronized_douglas_peucker(
+    points: &PointSet,
+    params: &[f64],
+    tolerance_rad: f64,
+) -> Vec<usize> {
+    let n = points.len();
+    assert_eq!(params.len(), n, "one parameter per point");
+    if n <= 2 {
+        return (0..n).collect();
+    }
+    let mut keep = vec![false; n];
+    keep[0] = true;
+    keep[n - 1] = true;
+    let mut stack = vec![(0, n - 1)];
+    while let Some((i0, i1)) = stack.pop() {
+        if i1 <= i0 + 1 {
+            continue;
+        }
+        let (a, b) = (points.get(i0), points.get(i1));
+        let span = params[i1] - params[i0];
+        let split = if angle_between(a, b) >= std::f64::consts::PI - ANTIPODAL_MARGIN_RAD {
+            Some((i0 + i1) / 2)
+        } else {
+            let (mut worst, mut at) = (-1.0, i0 + 1);
+            for j in i0 + 1..i1 {
+                let f = if span > 0.0 {
+                    (params[j] - params[i0]) / span
+                } else {
+                    0.0
+                };
+                let e = match crate::sphere::geometry::point::slerp(a, b, f) {
+                    Ok(c) => angle_between(points.get(j), &c),
+                    Err(_) => f64::INFINITY,
+                };
+                if e > worst {
+                    worst = e;
+                    at = j;
+                }
+            }
+            (worst > tolerance_rad).then_some(at)
+        };
+        if let Some(j) = split {
+            keep[j] = true;
+            stack.push((j, i1));
+            stack.push((i0, j));
+        }
+    }
+    (0..n).filter(|&i| keep[i]).collect()
 }
 
 /// The largest distance (radians) of any point from the simplified line given by `kept`

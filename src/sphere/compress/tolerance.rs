@@ -43,6 +43,10 @@
 //! * With given parameters, degrees 2 and 3 start from knots at the vertices Douglas–Peucker
 //!   keeps at [`ToleranceOptions::seed_factor`] times the tolerance (dominant points), then
 //!   insertion and removal as above, knots stored.
+//! * With given parameters (times: the vertex error is then the synchronized distance) the
+//!   polyline fallbacks and the yardstick are the time-aware Douglas–Peucker's (TD-TR,
+//!   [`synchronized_douglas_peucker`]), then the polyline through every point with knots at
+//!   the parameters.
 //! * The solver is a converged Gauss–Newton (a few passes), never 30 GLS-PIA iterations.
 //!
 //! # Measured (`scripts/compression_bench.sh --ablation`)
@@ -78,7 +82,9 @@
 //! where a removal since changed its neighbourhood. `scripts/speed_bench.sh` measures whole
 //! datasets against mapshaper.
 
-use super::simplify::{distance_to_arc, douglas_peucker, douglas_peucker_ordered};
+use super::simplify::{
+    distance_to_arc, douglas_peucker, douglas_peucker_ordered, synchronized_douglas_peucker,
+};
 use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
 };
@@ -601,9 +607,11 @@ fn search(
 type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
 
 /// The polyline fallbacks, degree 1 on uniform knots (none stored): the Douglas–Peucker
-/// vertices at a hair under the tolerance, then (when parameters are free) every point. Each
-/// point's parameter is where it projects on its segment (kept non-decreasing). With given
-/// parameters the knots are the kept points' parameters instead (stored).
+/// vertices at the tolerance and a hair under it, then every point. Each point's parameter is
+/// where it projects on its segment (kept non-decreasing). With given parameters the vertices
+/// are the time-aware Douglas–Peucker's (TD-TR, the error at a point's own parameter) and the
+/// knots are the kept points' parameters (stored); the polyline through every point then has
+/// error 0 at every parameter, so strictly increasing parameters always meet the tolerance.
 fn polyline_candidates(
     points: &PointSet,
     base_params: &[f64],
@@ -614,18 +622,29 @@ fn polyline_candidates(
     let mut out = Vec::new();
     // Douglas–Peucker bounds the vertices' distance to the kept chords; the ordered two-way
     // distance can be a little more, hence the second try a hair under the tolerance.
-    let dp = douglas_peucker(points, tolerance_rad);
-    let dp_under = douglas_peucker(points, 0.95 * tolerance_rad);
-    // Then the chords that keep the points in order (fjords and spikes that plain
-    // Douglas–Peucker cuts across), before every point.
-    let ordered = douglas_peucker_ordered(points, 0.95 * tolerance_rad);
+    // With given parameters (times) the vertex error is the synchronized distance, so the
+    // time-aware Douglas–Peucker (TD-TR) chooses the vertices, and the polyline through every
+    // point (error 0 at every parameter) is the last resort. With free parameters, after plain
+    // Douglas–Peucker come the chords that keep the points in order (fjords and spikes that
+    // plain Douglas–Peucker cuts across), before every point.
     let all: Vec<usize> = (0..n).collect();
-    for kept in [dp, dp_under, ordered, all] {
+    let tries = if free {
+        vec![
+            douglas_peucker(points, tolerance_rad),
+            douglas_peucker(points, 0.95 * tolerance_rad),
+            douglas_peucker_ordered(points, 0.95 * tolerance_rad),
+            all,
+        ]
+    } else {
+        vec![
+            synchronized_douglas_peucker(points, base_params, tolerance_rad),
+            synchronized_douglas_peucker(points, base_params, 0.95 * tolerance_rad),
+            all,
+        ]
+    };
+    for kept in tries {
         if let Some(c) = polyline_through(points, base_params, free, &kept) {
             out.push(c);
-        }
-        if !free {
-            break;
         }
     }
     out
