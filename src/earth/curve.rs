@@ -292,7 +292,7 @@ pub struct CurveOutput {
 }
 
 /// The number of points automatic sampling starts from: a few per control point.
-fn sampling_start(control_points: usize) -> usize {
+pub(crate) fn sampling_start(control_points: usize) -> usize {
     (4 * control_points).max(16)
 }
 
@@ -303,7 +303,7 @@ pub fn auto_tolerance_rad(max_error_rad: f64) -> f64 {
 
 /// The start every curve operation shares: parse the positions, check a ring is closed, drop
 /// repeated consecutive positions and make sure enough distinct ones remain.
-fn prepare_line(
+pub(crate) fn prepare_line(
     coords: &Value,
     pointer: &str,
     closed: bool,
@@ -719,7 +719,7 @@ const REPORT_TWO_WAY_LENGTH_SHARE: f64 = 1e-5;
 const REPORT_TWO_WAY_EVALUATIONS: usize = 50_000;
 
 /// Metres rounded up to millimetres: for bounds, which must not shrink in print.
-fn round_up_m(x: f64) -> f64 {
+pub(crate) fn round_up_m(x: f64) -> f64 {
     (x * 1000.0).ceil() / 1000.0
 }
 
@@ -801,7 +801,7 @@ fn ring_sampling(sampling: Sampling, closed: bool) -> Sampling {
 
 /// A spline whose control points are rounded to `precision` decimals of a degree, and those
 /// control points as `[lon, lat]`.
-fn round_spline(
+pub(crate) fn round_spline(
     s: &SphericalBSpline,
     precision: u32,
 ) -> Result<(SphericalBSpline, Vec<[f64; 2]>), SphereError> {
@@ -852,7 +852,7 @@ fn median_step_rad(d: &DistinctPositions) -> f64 {
 }
 
 /// Maps a math-core error on distinct positions to a GeoJSON error at the input position.
-fn sphere_error(e: SphereError, pointer: &str, input_index: &[usize]) -> EarthError {
+pub(crate) fn sphere_error(e: SphereError, pointer: &str, input_index: &[usize]) -> EarthError {
     let at = |i: usize| format!("{pointer}/{}", input_index.get(i).copied().unwrap_or(i));
     match e {
         SphereError::Antipodal { index, angle_rad } => EarthError::new(

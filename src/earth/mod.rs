@@ -48,6 +48,8 @@ pub mod curve;
 pub mod features;
 pub mod lonlat;
 pub mod sampling;
+pub mod topojson;
+pub mod topology;
 
 pub use features::{
     evaluate_spline_document, process_feature, process_geometry, Document, FeatureSlot,

@@ -17,4 +17,5 @@ mod http_port;
 mod paper_reproduction;
 mod sphere_properties;
 mod tolerance;
+mod topology;
 mod two_way;
