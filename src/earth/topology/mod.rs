@@ -20,11 +20,13 @@
 //!    junctions' rounded positions. A ring is its arcs' coordinates in ring order (reversed
 //!    where the ring runs the arc backwards), so two neighbours' rings hold bit-identical
 //!    coordinates along a shared arc.
-//! 4. A polygon that crosses the antimeridian is split there as without `topology=shared`
-//!    ([`super::antimeridian::split_polygon`]); the clipping moves its vertices by under 5 cm,
-//!    so such a polygon's coordinates are *not* bit-identical to its neighbours'
-//!    (`properties.fit.antimeridian_split: true` says so). Coordinates exactly at ±180 degrees
-//!    take the sign of the ring around them (the same point either way).
+//! 4. A polygon whose rings cross the antimeridian is cut there into polygons within
+//!    [-180, 180] (`properties.fit.antimeridian_split: true`) without moving any vertex: each
+//!    crossing gets a vertex on the fitted arc's great-circle step, and a ring winding around
+//!    a pole is closed along the pole (`split_at_antimeridian`). Vertices away from the
+//!    antimeridian keep their bits, so the shared borders of such a polygon are still
+//!    identical to its neighbours'. Coordinates exactly at ±180 degrees take the sign of the
+//!    ring around them (the same point either way).
 //!
 //! Altitudes are not carried (a shared border has one line for two features); output
 //! positions are `[lon, lat]`. The splines of the arcs are listed once, in the collection's
@@ -32,7 +34,10 @@
 
 pub mod arcs;
 
-use super::antimeridian::{split_polygon, SphereRing};
+/// How many times an arc that crosses a neighbouring arc (or itself) is refitted at half its
+/// tolerance before the crossing is reported as left (`crossings_left`).
+pub const TIGHTEN_ROUNDS: usize = 3;
+
 use super::curve::{
     compression_ratio, prepare_line, round_spline, round_up_m, rounding_bound_rad, sampling_start,
     sphere_error,
@@ -43,6 +48,7 @@ use super::sampling::{sample, AUTO_DEVIATION_FRACTION};
 use super::{EarthError, Job, Operation, Problem};
 use crate::sphere::fit::adaptive_knots::{turning_angles, CORNER_ANGLE_RAD};
 use crate::sphere::fit::seam::close_seam;
+use crate::sphere::geometry::crossing::polylines_cross;
 use crate::sphere::metrics::pointwise_errors;
 use crate::sphere::tolerance::{fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions};
 use crate::sphere::two_way::{two_way_distance, TwoWayOptions};
@@ -50,6 +56,7 @@ use crate::sphere::{PointSet, SphericalBSpline};
 use arcs::{ArcGraph, ArcUse, InputRing};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
+use std::collections::{BTreeSet, HashSet};
 use std::str::FromStr;
 
 /// How the features of a document relate when fitted.
@@ -151,6 +158,9 @@ pub struct FittedArc {
     pub seam: Option<&'static str>,
     /// The proven bound of the dense polyline's distance from the curve, radians.
     pub sampling_deviation_rad: f64,
+    /// The tolerance this arc was fitted to, radians: the job's, or less where a crossing
+    /// with a neighbouring arc made the fit tighten it.
+    pub tolerance_rad: f64,
 }
 
 /// A fitted coverage: the document's features, in order, with polygon features rebuilt from
@@ -211,6 +221,10 @@ pub fn arc_json(a: &FittedArc) -> Value {
         json!(round_up_m(rad_to_m(a.two_way_rad))),
     );
     m.insert("tolerance_met".into(), json!(a.tolerance_met));
+    m.insert(
+        "fitted_to_m".into(),
+        json!(round_to(rad_to_m(a.tolerance_rad), 3)),
+    );
     m.insert("stored_numbers".into(), json!(a.stored_numbers));
     m.insert(
         "knot_rule".into(),
@@ -370,6 +384,65 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         .collect::<Vec<_>>()
         .into_iter()
         .collect::<Result<_, _>>()?;
+    // Validity: arcs of one ring, or meeting at a junction, must not cross each other (nor
+    // an arc itself) where the input did not; such arcs are refitted at half the tolerance,
+    // up to TIGHTEN_ROUNDS times.
+    let pairs = arc_pairs(&graph);
+    let input_arcs: Vec<Vec<[f64; 3]>> =
+        (0..graph.arcs.len()).map(|a| graph.arc_points(a)).collect();
+    let input_crossing: HashSet<(usize, usize)> = pairs
+        .par_iter()
+        .filter(|&&(a, b)| polylines_cross(&input_arcs[a], &input_arcs[b], a == b))
+        .copied()
+        .collect();
+    let mut fitted = fitted;
+    let mut arc_tol = vec![tol_rad; graph.arcs.len()];
+    let mut crossings_left = Vec::new();
+    for round in 0..=TIGHTEN_ROUNDS {
+        let crossing: Vec<(usize, usize)> = pairs
+            .par_iter()
+            .filter(|p| !input_crossing.contains(p))
+            .filter(|&&(a, b)| polylines_cross(&fitted[a].dense, &fitted[b].dense, a == b))
+            .copied()
+            .collect();
+        if crossing.is_empty() || round == TIGHTEN_ROUNDS {
+            crossings_left = crossing;
+            break;
+        }
+        let mut redo: Vec<usize> = crossing.iter().flat_map(|&(a, b)| [a, b]).collect();
+        redo.sort_unstable();
+        redo.dedup();
+        let refits: Vec<(usize, FittedArc)> = redo
+            .par_iter()
+            .map(|&a| {
+                let _scope = job.cancel.enter();
+                let t = 0.5 * arc_tol[a];
+                fit_arc(
+                    &input_arcs[a],
+                    graph.arcs[a].closed,
+                    t,
+                    degree_cap,
+                    parameterization,
+                    job,
+                )
+                .map(|f| (a, f))
+                .map_err(|e| EarthError::new(sources[arc_ring[a]].pointer.clone(), e.problem))
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .collect::<Result<_, _>>()?;
+        for (a, f) in refits {
+            arc_tol[a] *= 0.5;
+            fitted[a] = FittedArc {
+                tolerance_met: f.max_error_rad.max(f.two_way_rad) <= tol_rad,
+                ..f
+            };
+        }
+    }
+    for (a, f) in fitted.iter_mut().enumerate() {
+        f.tolerance_rad = arc_tol[a];
+    }
+    let tightened = arc_tol.iter().filter(|&&t| t < tol_rad).count();
     // Rebuild the polygon features.
     let mut by_feature: Vec<Vec<Vec<(usize, &[ArcUse])>>> = vec![Vec::new(); doc.slots.len()];
     for (ri, s) in sources.iter().enumerate() {
@@ -443,28 +516,8 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
                 ring_uses_out.push(poly.iter().map(|(_, u)| u.to_vec()).collect());
             } else {
                 split_any = true;
-                let sphere_rings: Vec<SphereRing> = poly
-                    .iter()
-                    .map(|(_, uses)| {
-                        let points = with_antimeridian_crossings(&ring_points(uses, &fitted));
-                        SphereRing {
-                            alts: vec![0.0; points.len()],
-                            points,
-                        }
-                    })
-                    .collect();
-                let split = split_polygon(&sphere_rings).map_err(|m| {
-                    EarthError::new(sources[poly[0].0].pointer.clone(), Problem::InvalidRing(m))
-                })?;
-                for piece in split {
-                    let rings_ll: Vec<Vec<[f64; 2]>> = piece
-                        .iter()
-                        .map(|ring| {
-                            ring.iter()
-                                .map(|p| [round_to(p[0], precision), round_to(p[1], precision)])
-                                .collect()
-                        })
-                        .collect();
+                let split = split_at_antimeridian(&ll_rings, precision);
+                for rings_ll in split {
                     out_polys.push(json!(rings_ll));
                     out_ll.push(rings_ll);
                 }
@@ -523,6 +576,13 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         info.insert("area_change".into(), json!(round_to(area_change, 9)));
         info.insert("antimeridian_split".into(), json!(split_any));
         info.insert("dropped_rings".into(), json!(dropped));
+        info.insert(
+            "tightened_arcs".into(),
+            json!(feature_arcs
+                .iter()
+                .filter(|a| a.tolerance_rad < tol_rad)
+                .count()),
+        );
         info.insert("geometry".into(), json!(kind));
         info.insert("parts".into(), Value::Array(parts));
         let mut out = feature.as_object().cloned().unwrap_or_default();
@@ -572,6 +632,8 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         "compression_ratio": compression_ratio(input_points_total, stored_once),
         "max_area_change": round_to(area_change_max, 9),
         "dropped_rings": dropped_total,
+        "tightened_arcs": tightened,
+        "crossings_left": crossings_left.iter().map(|&(a, b)| [a, b]).collect::<Vec<_>>(),
     });
     Ok(Coverage {
         features: features
@@ -585,6 +647,36 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         report,
         stats,
     })
+}
+
+/// The pairs of arcs (a <= b; (a, a) for an arc and itself) that could cross in a way that
+/// matters: arcs of one ring, and arcs ending at one junction.
+fn arc_pairs(graph: &ArcGraph) -> Vec<(usize, usize)> {
+    let mut pairs = BTreeSet::new();
+    let mut at_vertex: std::collections::HashMap<usize, Vec<usize>> = Default::default();
+    for (a, arc) in graph.arcs.iter().enumerate() {
+        pairs.insert((a, a));
+        if !arc.closed {
+            for v in [arc.vertices[0], arc.vertices[arc.vertices.len() - 1]] {
+                at_vertex.entry(v).or_default().push(a);
+            }
+        }
+    }
+    let mut add_all = |arcs: &[usize]| {
+        for (i, &a) in arcs.iter().enumerate() {
+            for &b in &arcs[i..] {
+                pairs.insert((a.min(b), a.max(b)));
+            }
+        }
+    };
+    for uses in &graph.rings {
+        let arcs: Vec<usize> = uses.iter().map(|u| u.arc).collect();
+        add_all(&arcs);
+    }
+    for arcs in at_vertex.values() {
+        add_all(arcs);
+    }
+    pairs.into_iter().collect()
 }
 
 fn invalid(pointer: impl Into<String>, msg: impl Into<String>) -> EarthError {
@@ -677,52 +769,141 @@ fn ring_lonlat(uses: &[ArcUse], arcs: &[FittedArc]) -> Vec<[f64; 2]> {
     out
 }
 
-/// A ring's dense unit vectors from its arcs (for antimeridian splitting), closed.
-fn ring_points(uses: &[ArcUse], arcs: &[FittedArc]) -> Vec<[f64; 3]> {
-    let mut out: Vec<[f64; 3]> = Vec::new();
-    for u in uses {
-        let d = &arcs[u.arc].dense;
-        let it: Box<dyn Iterator<Item = &[f64; 3]>> = if u.reversed {
-            Box::new(d.iter().rev())
-        } else {
-            Box::new(d.iter())
-        };
-        for p in it {
-            if out.last() != Some(p) {
-                out.push(*p);
-            }
-        }
-    }
-    if out.first() != out.last() {
-        if let Some(&f) = out.first() {
-            out.push(f);
-        }
-    }
-    out
-}
-
-/// A ring with a vertex inserted where each of its great-circle segments crosses the
-/// antimeridian (the half-plane y = 0, x < 0), exactly on the segment: the splitting clips
-/// there at a vertex, rather than along a lon/lat straight line that leaves the curve.
-fn with_antimeridian_crossings(ring: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let mut out = Vec::with_capacity(ring.len() + 4);
-    for (i, b) in ring.iter().enumerate() {
-        if let Some(a) = i.checked_sub(1).map(|j| ring[j]) {
-            if (a[1] < 0.0) != (b[1] < 0.0) && a[1] != 0.0 && b[1] != 0.0 {
-                // The point of the segment with y = 0: a·|b_y| + b·|a_y|, normalised.
-                let (wa, wb) = (b[1].abs(), a[1].abs());
-                let mut p = [wa * a[0] + wb * b[0], 0.0, wa * a[2] + wb * b[2]];
-                let n = (p[0] * p[0] + p[2] * p[2]).sqrt();
-                if n > 0.0 && p[0] < 0.0 {
-                    p[0] /= n;
-                    p[2] /= n;
-                    out.push(p);
+/// A polygon (rings of rounded lon/lat, exterior first) that crosses the antimeridian, cut
+/// there into polygons within [-180, 180] without moving any vertex: each step across ±180
+/// gets a vertex where its great circle meets the antimeridian; longitudes are unwrapped by
+/// whole turns (vertices in [-180, 180] keep their bits); a ring winding around a pole is
+/// closed along that pole (the pole on the side of its mean latitude); each ring is clipped to
+/// the strips [-540, -180], [-180, 180], [180, 540] (Sutherland–Hodgman: the cut lines pass
+/// through the inserted vertices, so nothing is interpolated off the curve), shifted back and
+/// rounded. Several pieces of one ring in one strip stay one ring, joined along the cut line.
+fn split_at_antimeridian(rings: &[Vec<[f64; 2]>], precision: u32) -> Vec<Vec<Vec<[f64; 2]>>> {
+    use super::lonlat::lonlat_to_unit;
+    // Each step across ±180 gets the crossing twice, once at each side's longitude.
+    let with_crossings = |ring: &Vec<[f64; 2]>| -> (Vec<[f64; 2]>, i32, Option<usize>) {
+        let mut out: Vec<[f64; 2]> = Vec::with_capacity(ring.len() + 8);
+        let (mut winding, mut first_after) = (0i32, None);
+        for (i, p) in ring.iter().enumerate() {
+            if i > 0 {
+                let q = ring[i - 1];
+                let d = p[0] - q[0];
+                if d.abs() > 180.0 {
+                    // The crossing on the great circle q-p: the point with y = 0 (x < 0).
+                    let (a, b) = (lonlat_to_unit(q[0], q[1]), lonlat_to_unit(p[0], p[1]));
+                    let (wa, wb) = (b[1].abs(), a[1].abs());
+                    let z = wa * a[2] + wb * b[2];
+                    let x = wa * a[0] + wb * b[0];
+                    let lat = round_to(z.atan2(-x).to_degrees(), precision);
+                    let side = if q[0] > 0.0 { 180.0 } else { -180.0 };
+                    out.push([side, lat]);
+                    out.push([-side, lat]);
+                    first_after.get_or_insert(out.len() - 1);
+                    winding += if d < 0.0 { 1 } else { -1 };
                 }
             }
+            out.push(*p);
         }
-        out.push(*b);
+        (out, winding, first_after)
+    };
+    let unwrap = |ring: &Vec<[f64; 2]>| -> Vec<[f64; 2]> {
+        let (mut ring, winding, first_after) = with_crossings(ring);
+        if let (true, Some(k)) = (winding != 0, first_after) {
+            // Winding around a pole: start just after a crossing and end just before it, so
+            // the ring spans exactly [-180, 180] and closes along the antimeridian and the pole.
+            ring.pop();
+            ring.rotate_left(k);
+        }
+        let mut out: Vec<[f64; 2]> = Vec::with_capacity(ring.len() + 3);
+        let mut turn = 0.0f64;
+        for (i, p) in ring.iter().enumerate() {
+            if i > 0 {
+                let d = p[0] - ring[i - 1][0];
+                if d.abs() > 180.0 {
+                    turn += if d < 0.0 { 1.0 } else { -1.0 };
+                }
+            }
+            out.push([p[0] + 360.0 * turn, p[1]]);
+        }
+        out
+    };
+    let mut unwrapped: Vec<Vec<[f64; 2]>> = rings.iter().map(unwrap).collect();
+    for ring in unwrapped.iter_mut() {
+        let (first, last) = (ring[0], ring[ring.len() - 1]);
+        if (last[0] - first[0]).abs() > 180.0 {
+            let mean_lat = ring.iter().map(|p| p[1]).sum::<f64>() / ring.len() as f64;
+            let pole = if mean_lat >= 0.0 { 90.0 } else { -90.0 };
+            ring.push([last[0], pole]);
+            ring.push([first[0], pole]);
+            ring.push(first);
+        }
     }
-    out
+    // Holes next to the exterior.
+    let (lo, hi) = unwrapped[0]
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[0]), hi.max(p[0]))
+        });
+    let centre = 0.5 * (lo + hi);
+    for ring in unwrapped.iter_mut().skip(1) {
+        let mean = ring.iter().map(|p| p[0]).sum::<f64>() / ring.len() as f64;
+        let shift = 360.0 * ((centre - mean) / 360.0).round();
+        if shift != 0.0 {
+            ring.iter_mut().for_each(|p| p[0] += shift);
+        }
+    }
+    let clip = |ring: &[[f64; 2]], x0: f64, keep_above: bool| -> Vec<[f64; 2]> {
+        let inside = |p: &[f64; 2]| if keep_above { p[0] >= x0 } else { p[0] <= x0 };
+        let mut out = Vec::with_capacity(ring.len());
+        let n = ring.len();
+        for i in 0..n.saturating_sub(1) {
+            let (a, b) = (ring[i], ring[i + 1]);
+            if inside(&a) {
+                out.push(a);
+            }
+            if inside(&a) != inside(&b) && a[0] != x0 && b[0] != x0 {
+                let t = (x0 - a[0]) / (b[0] - a[0]);
+                out.push([x0, a[1] + t * (b[1] - a[1])]);
+            }
+        }
+        if let Some(&f) = out.first() {
+            if out.last() != Some(&f) {
+                out.push(f);
+            }
+        }
+        out
+    };
+    let mut pieces = Vec::new();
+    for k in [-1.0f64, 0.0, 1.0] {
+        let (x_lo, x_hi) = (-180.0 + 360.0 * k, 180.0 + 360.0 * k);
+        let mut poly = Vec::new();
+        for (r, ring) in unwrapped.iter().enumerate() {
+            let c = clip(&clip(ring, x_lo, true), x_hi, false);
+            let c: Vec<[f64; 2]> = c
+                .iter()
+                .map(|p| {
+                    let lon = if k == 0.0 {
+                        p[0]
+                    } else {
+                        round_to(p[0] - 360.0 * k, precision)
+                    };
+                    [lon.clamp(-180.0, 180.0), p[1]]
+                })
+                .collect();
+            let mut distinct = c.clone();
+            distinct.dedup();
+            if distinct.len() < 4 {
+                if r == 0 {
+                    break;
+                }
+                continue;
+            }
+            poly.push(c);
+        }
+        if !poly.is_empty() {
+            pieces.push(poly);
+        }
+    }
+    pieces
 }
 
 /// No step of the ring spans more than 180 degrees of longitude: it does not cross the
@@ -900,6 +1081,7 @@ fn fit_arc(
         input_points: n_in,
         seam,
         sampling_deviation_rad: dense.max_deviation_rad,
+        tolerance_rad: tol_rad,
         spline,
     })
 }
