@@ -122,12 +122,18 @@ fn worst_vertex_distance_m(input: &Value, output: &Value) -> f64 {
     worst
 }
 
-fn key(p: &[f64; 2]) -> (u64, u64) {
+/// A position's bits.
+type Bits = (u64, u64);
+
+/// A segment as an unordered pair of positions' bits.
+type Segment = (Bits, Bits);
+
+fn key(p: &[f64; 2]) -> Bits {
     (p[0].to_bits(), p[1].to_bits())
 }
 
 /// Every segment of a feature's output rings, as an unordered pair of bit patterns.
-fn segment_set(g: &Value) -> HashSet<((u64, u64), (u64, u64))> {
+fn segment_set(g: &Value) -> HashSet<Segment> {
     let mut s = HashSet::new();
     for r in polygons(g).iter().flatten() {
         for w in r.windows(2) {
@@ -149,7 +155,7 @@ fn assert_neighbours_share_output(
 ) -> (usize, usize) {
     let feats = input["features"].as_array().unwrap();
     // Input edges -> features using them.
-    let mut edges: HashMap<((u64, u64), (u64, u64)), Vec<usize>> = HashMap::new();
+    let mut edges: HashMap<Segment, Vec<usize>> = HashMap::new();
     for (i, f) in feats.iter().enumerate() {
         if !f["geometry"]["type"].as_str().unwrap().ends_with("Polygon") {
             continue;
@@ -168,7 +174,7 @@ fn assert_neighbours_share_output(
     // Vertices inside a border shared by two features: ends of two edges both shared by
     // exactly that pair (junctions, where the nearest output segment may be a third
     // feature's border, are left out).
-    let mut ends: HashMap<((usize, usize), (u64, u64)), usize> = HashMap::new();
+    let mut ends: HashMap<((usize, usize), Bits), usize> = HashMap::new();
     for ((a, b), users) in &edges {
         if users.len() == 2 {
             let pair = (users[0].min(users[1]), users[0].max(users[1]));
@@ -514,7 +520,7 @@ fn the_cli_writes_topojson_that_gdal_reads() {
         arcs.len() as u64,
         t["spherefit"]["arc_count"].as_u64().unwrap()
     );
-    assert_eq!(t["spherefit"]["arcs"][0]["spline"]["degree"].is_u64(), true);
+    assert!(t["spherefit"]["arcs"][0]["spline"]["degree"].is_u64());
     // Every ring decoded from the arcs is the GeoJSON output's ring.
     let geoms = t["objects"]["collection"]["geometries"].as_array().unwrap();
     let feats = g["features"].as_array().unwrap();

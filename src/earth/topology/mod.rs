@@ -177,7 +177,7 @@ pub struct Coverage {
     pub arcs: Vec<FittedArc>,
     /// For each feature: its polygons as rings of arc uses, when it was rebuilt from arcs
     /// (not for other features, nor for polygons split at the antimeridian).
-    pub feature_rings: Vec<Option<Vec<Vec<Vec<ArcUse>>>>>,
+    pub feature_rings: Vec<Option<PolygonArcs>>,
     /// The dataset report (also the GeoJSON collection's `topology` member).
     pub report: Value,
     /// Counters over all features, arcs counted once for `stored_numbers`.
@@ -240,6 +240,12 @@ pub fn arc_json(a: &FittedArc) -> Value {
     );
     Value::Object(m)
 }
+
+/// A feature's polygons, each a list of (input ring index, its arc uses).
+type FeatureRings<'a> = Vec<Vec<(usize, &'a [ArcUse])>>;
+
+/// A feature's polygons as rings of arc uses.
+pub type PolygonArcs = Vec<Vec<Vec<ArcUse>>>;
 
 /// A polygon ring of the input and where it came from.
 struct RingSource {
@@ -444,7 +450,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     }
     let tightened = arc_tol.iter().filter(|&&t| t < tol_rad).count();
     // Rebuild the polygon features.
-    let mut by_feature: Vec<Vec<Vec<(usize, &[ArcUse])>>> = vec![Vec::new(); doc.slots.len()];
+    let mut by_feature: Vec<FeatureRings<'_>> = vec![Vec::new(); doc.slots.len()];
     for (ri, s) in sources.iter().enumerate() {
         let polys = &mut by_feature[s.feature];
         if polys.len() <= s.polygon {
@@ -454,7 +460,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         debug_assert_eq!(polys[s.polygon].len(), s.ring + 1);
     }
     let precision = job.output.precision;
-    let mut feature_rings: Vec<Option<Vec<Vec<Vec<ArcUse>>>>> = vec![None; doc.slots.len()];
+    let mut feature_rings: Vec<Option<PolygonArcs>> = vec![None; doc.slots.len()];
     let mut max_two_way = 0.0f64;
     let mut max_error = 0.0f64;
     let mut all_met = true;
