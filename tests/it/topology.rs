@@ -316,6 +316,34 @@ fn world_110m_countries_share_their_borders_exactly_at_1_km() {
             .position(|f| f["properties"]["name"] == name)
             .unwrap()
     };
+    // Areas on the sphere, across the antimeridian and around a pole: Russia about 17.1
+    // million km² (16.9 at 1:110M), Antarctica about 12-14 million km², Fiji about 18,000 km².
+    let area = |name: &str| {
+        c.features[idx(name)]["properties"]["fit"]["area_m2"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        (1.6e13..1.8e13).contains(&area("Russia")),
+        "{}",
+        area("Russia")
+    );
+    assert!(
+        (1.1e13..1.45e13).contains(&area("Antarctica")),
+        "{}",
+        area("Antarctica")
+    );
+    assert!((1.5e10..2.2e10).contains(&area("Fiji")), "{}", area("Fiji"));
+    assert!(
+        c.report["max_area_change"].as_f64().unwrap() < 0.01,
+        "{}",
+        c.report
+    );
+    assert_eq!(
+        c.report["dropped_rings"],
+        json!(["/features/95/geometry/coordinates/0/0"])
+    );
+    assert_eq!(c.report["crossings_left"], json!([]));
     let (za, ls) = (idx("South Africa"), idx("Lesotho"));
     let lesotho = &c.feature_rings[ls].as_ref().unwrap()[0][0];
     assert_eq!(lesotho.len(), 1);

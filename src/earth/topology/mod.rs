@@ -544,8 +544,8 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         let stored: usize = feature_arcs.iter().map(|a| a.stored_numbers).sum();
         let n_in: usize = input_ll[fi].iter().flatten().map(Vec::len).sum();
         let n_out: usize = out_ll.iter().flatten().map(Vec::len).sum();
-        let area_in = geodesic_area(&input_ll[fi]);
-        let area_out = geodesic_area(&out_ll);
+        let area_in = sphere_area_m2(&input_ll[fi]);
+        let area_out = sphere_area_m2(&out_ll);
         let area_change = if area_in > 0.0 {
             area_out / area_in - 1.0
         } else {
@@ -918,19 +918,45 @@ fn is_plain(ring: &[[f64; 2]]) -> bool {
     ring.windows(2).all(|w| (w[1][0] - w[0][0]).abs() <= 180.0)
 }
 
-/// Geodesic area (WGS84, square metres) of lon/lat polygons with `geo`'s geodesic area.
-fn geodesic_area(polygons: &[Vec<Vec<[f64; 2]>>]) -> f64 {
-    use geo::{Coord, GeodesicArea, LineString, Polygon};
+/// Area (square metres, on the sphere of radius [`super::EARTH_RADIUS_M`]) of lon/lat polygons:
+/// each ring's solid angle as a fan of triangles from its mean direction (Van Oosterom and
+/// Strackee's formula), exteriors minus holes. Independent of how longitudes wrap, so rings
+/// across the antimeridian (input) and their split pieces (output) compare honestly; geo's
+/// lon/lat area algorithms do not handle the first.
+fn sphere_area_m2(polygons: &[Vec<Vec<[f64; 2]>>]) -> f64 {
+    use super::lonlat::lonlat_to_unit;
+    let ring_area = |r: &Vec<[f64; 2]>| -> f64 {
+        let u: Vec<[f64; 3]> = r.iter().map(|p| lonlat_to_unit(p[0], p[1])).collect();
+        let mut c = [0.0f64; 3];
+        for p in &u {
+            for k in 0..3 {
+                c[k] += p[k];
+            }
+        }
+        let n = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        if n == 0.0 {
+            return 0.0;
+        }
+        let c = [c[0] / n, c[1] / n, c[2] / n];
+        let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let mut omega = 0.0;
+        for w in u.windows(2) {
+            let (a, b) = (&w[0], &w[1]);
+            let x = [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ];
+            let num = dot(&c, &x);
+            let den = 1.0 + dot(&c, a) + dot(a, b) + dot(b, &c);
+            omega += 2.0 * num.atan2(den);
+        }
+        omega.abs() * super::EARTH_RADIUS_M * super::EARTH_RADIUS_M
+    };
     polygons
         .iter()
         .filter(|p| !p.is_empty())
-        .map(|p| {
-            let ls = |r: &Vec<[f64; 2]>| {
-                LineString::new(r.iter().map(|c| Coord { x: c[0], y: c[1] }).collect())
-            };
-            let poly = Polygon::new(ls(&p[0]), p[1..].iter().map(ls).collect());
-            poly.geodesic_area_unsigned()
-        })
+        .map(|p| ring_area(&p[0]) - p[1..].iter().map(ring_area).sum::<f64>())
         .sum()
 }
 
@@ -1206,13 +1232,23 @@ mod tests {
             }
         ));
         assert!(validate(&job(10.0), Topology::Shared, OutputFormat::TopoJson).is_ok());
-        // A degenerate ring is refused with its pointer.
+        // A ring that bounds no area is dropped and listed; a feature left without polygons
+        // gets a null geometry.
         let doc = Document::parse(
             json!({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 0], [1, 0], [0, 0]]]}),
             false,
         )
         .unwrap();
+        let c = fit_coverage(doc, &job(10.0)).unwrap();
+        assert_eq!(c.report["dropped_rings"], json!(["/coordinates/0"]));
+        assert!(c.features[0]["geometry"].is_null());
+        // Bad positions are still errors, with their pointer.
+        let doc = Document::parse(
+            json!({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 95], [0, 0]]]}),
+            false,
+        )
+        .unwrap();
         let e = fit_coverage(doc, &job(10.0)).unwrap_err();
-        assert_eq!(e.pointer, "/coordinates/0");
+        assert_eq!(e.pointer, "/coordinates/0/2/1");
     }
 }

@@ -175,7 +175,7 @@ mod tests {
         assert!(polylines_cross(&zig, &zig, true));
         let straight: Vec<[f64; 3]> = (0..10).map(|i| u(i as f64 * 0.1, 0.0)).collect();
         assert!(!polylines_cross(&straight, &straight, true));
-        let other: Vec<[f64; 3]> = (0..10).map(|i| u(0.55, -0.5 + i as f64 * 0.1)).collect();
+        let other: Vec<[f64; 3]> = (0..10).map(|i| u(0.55, -0.45 + i as f64 * 0.1)).collect();
         assert!(polylines_cross(&straight, &other, false));
         let apart: Vec<[f64; 3]> = (0..10).map(|i| u(5.0, -0.5 + i as f64 * 0.1)).collect();
         assert!(!polylines_cross(&straight, &apart, false));
