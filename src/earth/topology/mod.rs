@@ -1192,6 +1192,63 @@ mod tests {
     }
 
     #[test]
+    fn arcs_that_cross_their_neighbours_are_refitted_tighter() {
+        // A corridor 445 to 890 m wide between two features, its borders wiggling by 5 km
+        // together and sampled differently: at 1.5 km each border's fit may wander 1.5 km, so
+        // the two cross; at an eighth of that (3 halvings) they cannot.
+        let wave = |n: usize, offset_deg: f64, extra: f64| -> Vec<[f64; 2]> {
+            (0..=n)
+                .map(|i| {
+                    let t = i as f64 / n as f64;
+                    [
+                        3.0 * t,
+                        offset_deg
+                            + 0.045 * (9.0 * t).sin()
+                            + 0.02 * (23.0 * t).sin()
+                            + extra * (41.0 * t).sin(),
+                    ]
+                })
+                .collect()
+        };
+        // 445 to 890 m apart.
+        let (low, high) = (wave(97, 0.0, 0.0), wave(61, 0.006, 0.002));
+        let mut a = low.clone();
+        a.extend([[3.0, -1.0], [0.0, -1.0], low[0]]);
+        let mut corridor: Vec<[f64; 2]> = low.clone();
+        corridor.extend(high.iter().rev());
+        corridor.push(low[0]);
+        let mut b: Vec<[f64; 2]> = high.iter().rev().copied().collect();
+        b.extend([[0.0, 1.0], [3.0, 1.0], high[high.len() - 1]]);
+        let doc = json!({"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [a]}},
+            {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [corridor]}},
+            {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [b]}}
+        ]});
+        let c = fit_coverage(Document::parse(doc, false).unwrap(), &job(1500.0)).unwrap();
+        assert!(
+            c.report["tightened_arcs"].as_u64().unwrap() >= 1,
+            "{}",
+            c.report
+        );
+        assert_eq!(c.report["crossings_left"], json!([]));
+        assert_eq!(c.report["tolerance_met"], true);
+        let tightened: Vec<&FittedArc> = c
+            .arcs
+            .iter()
+            .filter(|a| a.tolerance_rad < m_to_rad(1500.0))
+            .collect();
+        assert!(tightened
+            .iter()
+            .all(|a| a.max_error_rad.max(a.two_way_rad) <= a.tolerance_rad));
+        assert_eq!(
+            c.features[1]["properties"]["fit"]["tightened_arcs"]
+                .as_u64()
+                .unwrap() as usize,
+            tightened.len()
+        );
+    }
+
+    #[test]
     fn an_island_is_one_closed_arc_smooth_across_its_seam() {
         let ring: Vec<[f64; 2]> = (0..=1000)
             .map(|i| {
