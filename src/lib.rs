@@ -12,7 +12,9 @@
 //!   Douglas–Peucker) and `sphere::linalg` (band matrix solvers, internal).
 //! * [`document`]: the S^n JSON documents (points in, splines and fit results out) shared by the
 //!   CLI and the service.
-//! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out.
+//! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out, and
+//!   polygon coverages fitted with shared borders ([`earth::topology`]: arcs and junctions,
+//!   each arc fitted once; [`earth::topojson`]: TopoJSON output).
 //! * [`service`]: the HTTP service (axum): `/v1/fit`, `/v1/interpolate`, `/v1/evaluate` and the
 //!   S^n documents under `/v1/sphere/`.
 //! * [`cli`]: the command line.

@@ -8,6 +8,8 @@
 //! * [`sampling`]: dense output of a curve (`samples`, `spacing_m`, or automatic).
 //! * [`curve`]: one line or ring: positions parsed and checked, repeats dropped, fitted.
 //! * [`features`]: GeoJSON documents walked feature by feature ([`process_feature`]).
+//! * [`topology`]: the polygons of a document as one coverage (`topology=shared`): arcs between
+//!   junctions, each fitted once, rings rebuilt from them; [`topojson`]: its TopoJSON output.
 //!
 //! # What happens to a GeoJSON document
 //! * LineString and each part of a MultiLineString is fitted on its own; each Polygon and
