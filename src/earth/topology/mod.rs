@@ -390,10 +390,20 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         .collect::<Vec<_>>()
         .into_iter()
         .collect::<Result<_, _>>()?;
-    // Validity: arcs of one ring, or meeting at a junction, must not cross each other (nor
-    // an arc itself) where the input did not; such arcs are refitted at half the tolerance,
+    // Validity: arcs of one polygon (exterior and holes), or meeting at a junction, must not
+    // cross each other (nor an arc itself) where the input did not; such arcs are refitted at half the tolerance,
     // up to TIGHTEN_ROUNDS times.
-    let pairs = arc_pairs(&graph);
+    // Rings by polygon (exterior and holes), so holes are checked against their shell too.
+    let mut polygon_rings: std::collections::BTreeMap<(usize, usize), Vec<usize>> =
+        Default::default();
+    for (ri, src) in sources.iter().enumerate() {
+        polygon_rings
+            .entry((src.feature, src.polygon))
+            .or_default()
+            .push(ri);
+    }
+    let groups: Vec<Vec<usize>> = polygon_rings.into_values().collect();
+    let pairs = arc_pairs(&graph, &groups);
     let input_arcs: Vec<Vec<[f64; 3]>> =
         (0..graph.arcs.len()).map(|a| graph.arc_points(a)).collect();
     let input_crossing: HashSet<(usize, usize)> = pairs
@@ -656,8 +666,9 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
 }
 
 /// The pairs of arcs (a <= b; (a, a) for an arc and itself) that could cross in a way that
-/// matters: arcs of one ring, and arcs ending at one junction.
-fn arc_pairs(graph: &ArcGraph) -> Vec<(usize, usize)> {
+/// matters: arcs of one polygon (its exterior and holes: `groups` lists each polygon's rings),
+/// and arcs ending at one junction.
+fn arc_pairs(graph: &ArcGraph, groups: &[Vec<usize>]) -> Vec<(usize, usize)> {
     let mut pairs = BTreeSet::new();
     let mut at_vertex: std::collections::HashMap<usize, Vec<usize>> = Default::default();
     for (a, arc) in graph.arcs.iter().enumerate() {
@@ -675,8 +686,13 @@ fn arc_pairs(graph: &ArcGraph) -> Vec<(usize, usize)> {
             }
         }
     };
-    for uses in &graph.rings {
-        let arcs: Vec<usize> = uses.iter().map(|u| u.arc).collect();
+    for rings in groups {
+        let mut arcs: Vec<usize> = rings
+            .iter()
+            .flat_map(|&r| graph.rings[r].iter().map(|u| u.arc))
+            .collect();
+        arcs.sort_unstable();
+        arcs.dedup();
         add_all(&arcs);
     }
     for arcs in at_vertex.values() {
