@@ -17,6 +17,7 @@
 
 mod input;
 mod pipeline;
+mod topology;
 
 use super::Failure;
 use crate::earth::{
@@ -258,6 +259,8 @@ pub(crate) struct FitArgs {
     #[command(flatten)]
     fit: FitOptionArgs,
     #[command(flatten)]
+    topology: topology::TopologyArgs,
+    #[command(flatten)]
     output: OutputArgs,
     #[command(flatten)]
     batch: BatchArgs,
@@ -304,6 +307,9 @@ pub(crate) struct EvaluateArgs {
 
 /// `spherefit fit`.
 pub(crate) fn fit(a: FitArgs) -> Result<(), Failure> {
+    if a.topology.topology == crate::earth::topology::Topology::Shared {
+        return topology::fit(a);
+    }
     run(
         "fit",
         a.fit.operation(),
@@ -521,6 +527,7 @@ fn run(
     let started = Instant::now();
     let allow_spline = matches!(operation, Operation::Evaluate);
     let job = job(operation, limits, time, output)?;
+    topology::check_formats(&batch)?;
     if let Some(n) = batch.threads {
         if n == 0 {
             return Err(Failure::input("--threads: use 1 or more"));

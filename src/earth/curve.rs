@@ -352,7 +352,7 @@ pub struct CurveOutput {
 }
 
 /// The number of points automatic sampling starts from: a few per control point.
-fn sampling_start(control_points: usize) -> usize {
+pub(crate) fn sampling_start(control_points: usize) -> usize {
     (4 * control_points).max(16)
 }
 
@@ -471,7 +471,7 @@ fn timed_line(
 /// repeated consecutive positions and make sure enough distinct ones remain. With `time`, the
 /// line's times are read and checked, only duplicate records (same time and position) are
 /// dropped, and the line is never closed.
-fn prepare_line(
+pub(crate) fn prepare_line(
     coords: &Value,
     pointer: &str,
     closed: bool,
@@ -985,7 +985,7 @@ const REPORT_TWO_WAY_LENGTH_SHARE: f64 = 1e-5;
 const REPORT_TWO_WAY_EVALUATIONS: usize = 50_000;
 
 /// Metres rounded up to millimetres: for bounds, which must not shrink in print.
-fn round_up_m(x: f64) -> f64 {
+pub(crate) fn round_up_m(x: f64) -> f64 {
     (x * 1000.0).ceil() / 1000.0
 }
 
@@ -1067,7 +1067,7 @@ fn ring_sampling(sampling: Sampling, closed: bool) -> Sampling {
 
 /// A spline whose control points are rounded to `precision` decimals of a degree, and those
 /// control points as `[lon, lat]`.
-fn round_spline(
+pub(crate) fn round_spline(
     s: &SphericalBSpline,
     precision: u32,
 ) -> Result<(SphericalBSpline, Vec<[f64; 2]>), SphereError> {
@@ -1118,7 +1118,7 @@ fn median_step_rad(d: &DistinctPositions) -> f64 {
 }
 
 /// Maps a math-core error on distinct positions to a GeoJSON error at the input position.
-fn sphere_error(e: SphereError, pointer: &str, input_index: &[usize]) -> EarthError {
+pub(crate) fn sphere_error(e: SphereError, pointer: &str, input_index: &[usize]) -> EarthError {
     let at = |i: usize| format!("{pointer}/{}", input_index.get(i).copied().unwrap_or(i));
     match e {
         SphereError::Antipodal { index, angle_rad } => EarthError::new(

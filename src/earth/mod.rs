@@ -10,6 +10,8 @@
 //! * [`features`]: GeoJSON documents walked feature by feature ([`process_feature`]).
 //! * [`time`]: tracks in time: times read from the properties or the 4th coordinate and
 //!   checked, the map between times and the curve parameter, speed and heading.
+//! * [`topology`]: the polygons of a document as one coverage (`topology=shared`): arcs between
+//!   junctions, each fitted once, rings rebuilt from them; [`topojson`]: its TopoJSON output.
 //!
 //! # What happens to a GeoJSON document
 //! * LineString and each part of a MultiLineString is fitted on its own; each Polygon and
@@ -56,6 +58,8 @@ pub mod features;
 pub mod lonlat;
 pub mod sampling;
 pub mod time;
+pub mod topojson;
+pub mod topology;
 
 pub use features::{
     evaluate_spline_document, process_feature, process_geometry, Document, FeatureSlot,

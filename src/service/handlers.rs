@@ -181,13 +181,22 @@ async fn geo(
     body: Body,
 ) -> Result<Response, ApiError> {
     let start = Instant::now();
-    let (job, body) = precheck(&state, body, || {
+    let ((job, (topology, format)), body) = precheck(&state, body, || {
         check_content_type(&headers, &[GEO_JSON, JSON])?;
-        query::geo_job(pairs(q)?, endpoint, &state.config.limits)
+        let pairs = pairs(q)?;
+        let topo = if endpoint == GeoEndpoint::Fit {
+            query::fit_topology(&pairs)?
+        } else {
+            Default::default()
+        };
+        let job = query::geo_job(pairs, endpoint, &state.config.limits)?;
+        crate::earth::topology::validate(&job, topo.0, topo.1).map_err(ApiError::from)?;
+        Ok((job, topo))
     })
     .await?;
     let held = read_body(&state, &headers, body, start).await?;
     let config = state.config.clone();
+    let shared = topology == crate::earth::topology::Topology::Shared;
     let out = run_cpu(
         &state,
         endpoint.route(),
@@ -195,11 +204,64 @@ async fn geo(
         held,
         move |bytes, cancel| {
             let job = job.with_cancel(cancel.clone());
-            geo_work(bytes, endpoint, &job, &config, cancel)
+            if shared {
+                coverage_work(bytes, &job, format, &config)
+            } else {
+                geo_work(bytes, endpoint, &job, &config, cancel)
+            }
         },
     )
     .await?;
-    Ok(respond(GEO_JSON, out))
+    let content_type = match format {
+        crate::earth::topology::OutputFormat::TopoJson => JSON,
+        crate::earth::topology::OutputFormat::GeoJson => GEO_JSON,
+    };
+    Ok(respond(content_type, out))
+}
+
+/// `topology=shared`: the whole document fitted as one coverage
+/// ([`crate::earth::topology::fit_coverage`]), written as GeoJSON or TopoJSON.
+fn coverage_work(
+    bytes: &[u8],
+    job: &Job,
+    format: crate::earth::topology::OutputFormat,
+    config: &ServiceConfig,
+) -> Result<(Vec<u8>, usize, usize), ApiError> {
+    let value = parse_json(bytes)?;
+    let doc = Document::parse(value, false)?;
+    let (total, over) = doc.curve_positions(config.max_points);
+    if let Some(i) = over {
+        return Err(ApiError::too_many_points(
+            total,
+            config.max_points,
+            doc.slots[i].pointer.clone(),
+        ));
+    }
+    let coverage = crate::earth::topology::fit_coverage(doc, job)?;
+    let stats = coverage.stats;
+    if stats.curves == 0 {
+        return Err(ApiError::unprocessable(
+            "nothing-to-fit",
+            "the input holds no LineString, MultiLineString, Polygon or MultiPolygon with coordinates (other geometries pass through, but there must be something to fit)",
+        )
+        .at(""));
+    }
+    if stats.output_points > config.max_output_points {
+        return Err(output_too_large(
+            stats.output_points.to_string(),
+            config.max_output_points,
+        ));
+    }
+    let bytes = match format {
+        crate::earth::topology::OutputFormat::TopoJson => {
+            crate::earth::topojson::to_bytes(&crate::earth::topojson::to_topology(coverage))
+        }
+        crate::earth::topology::OutputFormat::GeoJson => {
+            serde_json::to_vec(&coverage.into_feature_collection())
+                .map_err(|_| ApiError::internal())?
+        }
+    };
+    Ok((bytes, stats.input_points, stats.curves))
 }
 
 /// Parses, fits (features in parallel, first error in input order wins) and serialises.

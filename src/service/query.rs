@@ -145,6 +145,8 @@ pub const FIT_PARAMS: &[&str] = &[
     "spacing_m",
     "spacing_s",
     "precision",
+    "topology",
+    "format",
 ];
 /// Parameters of `/v1/interpolate`.
 pub const INTERPOLATE_PARAMS: &[&str] = &["beta1", "beta2", "samples", "spacing_m", "precision"];
@@ -358,6 +360,40 @@ pub fn geo_job(
     };
     job.validate().map_err(ApiError::from)?;
     Ok(job)
+}
+
+/// `topology` (`per-feature`, `shared`) and `format` (`geojson`, `topojson`) of `/v1/fit`,
+/// defaults when absent; names were checked by [`geo_job`]; whether they go with the other
+/// options is checked by [`crate::earth::topology::validate`].
+///
+/// # Errors
+/// 400 `invalid-query` for values that are not one of these.
+pub fn fit_topology(
+    pairs: &[(String, String)],
+) -> Result<
+    (
+        crate::earth::topology::Topology,
+        crate::earth::topology::OutputFormat,
+    ),
+    ApiError,
+> {
+    let value = |name: &str| pairs.iter().find(|(k, _)| k == name).map(|(_, v)| v);
+    let topology = match value("topology") {
+        None => Default::default(),
+        Some(v) => v.parse().map_err(|_| {
+            ApiError::invalid_query(
+                "topology",
+                format!("topology={v:?} is not per-feature or shared"),
+            )
+        })?,
+    };
+    let format = match value("format") {
+        None => Default::default(),
+        Some(v) => v.parse().map_err(|_| {
+            ApiError::invalid_query("format", format!("format={v:?} is not geojson or topojson"))
+        })?,
+    };
+    Ok((topology, format))
 }
 
 /// The three GeoJSON endpoints.

@@ -18,4 +18,5 @@ mod paper_reproduction;
 mod sphere_properties;
 mod time;
 mod tolerance;
+mod topology;
 mod two_way;

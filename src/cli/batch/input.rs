@@ -46,6 +46,8 @@ pub enum Format {
     /// Newline-delimited GeoJSON: one JSON text (usually a Feature) per line
     #[value(alias = "geojsonl", alias = "ndjson", alias = "jsonl")]
     Lines,
+    /// TopoJSON topology: output only, with `fit --topology shared`
+    Topojson,
 }
 
 /// One input named on the command line (or stdin).
@@ -241,7 +243,7 @@ impl Opened {
         match self.format {
             Format::Seq => self.read_texts(name, RS, emit),
             Format::Lines => self.read_texts(name, b'\n', emit),
-            Format::Geojson | Format::Auto => self.read_document(name, emit),
+            Format::Geojson | Format::Auto | Format::Topojson => self.read_document(name, emit),
         }
     }
 

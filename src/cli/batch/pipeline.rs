@@ -273,7 +273,7 @@ impl<W: Write> Sink<W> {
                 self.out.write_all(json)?;
                 self.out.write_all(b"\n")
             }
-            Format::Geojson | Format::Auto => {
+            Format::Geojson | Format::Auto | Format::Topojson => {
                 if self.started {
                     self.out.write_all(b",\n")?;
                 } else {

@@ -165,6 +165,11 @@ pub struct ToleranceOptions {
     pub seed_factor: f64,
     /// Most control points per curve (default: the number of points).
     pub max_control_points: Option<usize>,
+    /// Keep the end control points at the first and last point, exactly: a clamped curve then
+    /// starts and ends at those points bit for bit (pieces of a coverage meeting at a junction,
+    /// a ring closed at its seam). Without it the end control points move with the fit, so the
+    /// curve ends near (within the tolerance of) the end points only.
+    pub pin_ends: bool,
     /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
     pub cancel: crate::sphere::cancel::Cancel,
 }
@@ -181,6 +186,7 @@ impl Default for ToleranceOptions {
             adaptive_knots: false,
             seed_factor: 4.0,
             max_control_points: None,
+            pin_ends: false,
             cancel: crate::sphere::cancel::Cancel::inherit(),
         }
     }
@@ -225,6 +231,11 @@ impl ToleranceOptions {
     /// Caps the number of control points.
     pub fn with_max_control_points(mut self, n: usize) -> Self {
         self.max_control_points = Some(n);
+        self
+    }
+    /// Pins (or frees) the end control points at the first and last point.
+    pub fn with_pin_ends(mut self, on: bool) -> Self {
+        self.pin_ends = on;
         self
     }
 }
@@ -807,7 +818,7 @@ fn fit_degree<D: Dim, G: Degree>(
             Some(b) => (b.saturating_sub(2) / (dim - 1)).min(cap),
             None => cap.min(points.len()),
         };
-        if let Some(u) = uniform_search(d, g, points, base_params, target, most) {
+        if let Some(u) = uniform_search(d, g, points, base_params, target, most, options.pin_ends) {
             out.push(u);
         }
     }
@@ -823,6 +834,7 @@ fn uniform_search<D: Dim, G: Degree>(
     base_params: &[f64],
     target: f64,
     most: usize,
+    pin_ends: bool,
 ) -> Option<Curve> {
     let p = g.get();
     if most < p + 1 {
@@ -831,6 +843,9 @@ fn uniform_search<D: Dim, G: Degree>(
     let try_count = |n_ctrl: usize| -> Option<Fitter<D, G>> {
         let knots = clamped_uniform_knots(n_ctrl, p);
         let mut f = Fitter::with_knots(d, g, points, base_params.to_vec(), true, knots)?;
+        if pin_ends {
+            f.pin_ends();
+        }
         f.correct_all(4);
         f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0);
         Some(f)
@@ -866,6 +881,8 @@ struct Fitter<'a, D: Dim, G: Degree> {
     free: bool,
     /// Use Lawson reweighting in removals.
     reweight: bool,
+    /// The end control points are the first and last point and never move.
+    pinned: bool,
     params: Vec<f64>,
     knots: Vec<f64>,
     ctrl: PointSet,
@@ -914,6 +931,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             points,
             free,
             reweight: false,
+            pinned: false,
             err: vec![0.0; points.len()],
             weight: vec![1.0; points.len()],
             params,
@@ -971,6 +989,9 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 free,
                 clamped_uniform_knots(cap, p),
             )?;
+            if options.pin_ends {
+                f.pin_ends();
+            }
             if free {
                 f.correct_all(4);
             }
@@ -992,6 +1013,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 points,
                 free,
                 reweight: false,
+                pinned: false,
                 err: vec![0.0; points.len()],
                 weight: vec![1.0; points.len()],
                 params: base_params.to_vec(),
@@ -1006,10 +1028,24 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         } else {
             Fitter::with_knots(d, g, points, base_params.to_vec(), free, knots)?
         };
+        if options.pin_ends {
+            f.pin_ends();
+        }
         if free {
             f.correct_all(4);
         }
         Some(f)
+    }
+
+    /// Puts the end control points on the first and last point and keeps them there.
+    fn pin_ends(&mut self) {
+        let (n, last) = (self.n_ctrl(), self.points.len() - 1);
+        self.ctrl.get_mut(0).copy_from_slice(self.points.get(0));
+        self.ctrl
+            .get_mut(n - 1)
+            .copy_from_slice(self.points.get(last));
+        self.pinned = true;
+        self.measure_range(0, self.points.len());
     }
 
     fn p(&self) -> usize {
@@ -1217,15 +1253,18 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         target: f64,
         give_up: f64,
     ) -> f64 {
-        // A closed line keeps its seam: the end control points stay on its first (= last)
-        // point, so the curve is closed as fitted and closing it later moves nothing.
-        let (c0, c1) = if self.closed() {
+        // A closed line keeps its seam, and pinned ends (junctions of a coverage) stay: the
+        // end control points stay on the first and last points, so a ring is closed as
+        // fitted and closing it later moves nothing.
+        let (c0, c1) = if self.pinned || self.closed() {
             (c0.max(1), c1.min(self.n_ctrl() - 1))
         } else {
             (c0, c1)
         };
         if c0 >= c1 {
-            return self.err[..].iter().fold(0.0, |a: f64, &b| a.max(b));
+            // Nothing free to move (two pinned control points): the window's error as it is.
+            let (j0, j1) = self.window_points(0, self.n_ctrl());
+            return self.measure_range(j0, j1).0;
         }
         let (j0, j1) = self.window_points(c0, c1);
         if j0 >= j1 {
@@ -1602,6 +1641,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             points: self.points,
             free: true,
             reweight: false,
+            pinned: self.pinned,
             params,
             knots,
             ctrl: self.ctrl.clone(),
@@ -1751,6 +1791,37 @@ mod tests {
         };
         assert_eq!(fit.stored_numbers, 3 * n + knots + 1);
         assert!(fit.compression_ratio > 5.0, "{}", fit.compression_ratio);
+    }
+
+    #[test]
+    fn pinned_ends_are_the_end_points_bit_for_bit() {
+        let pts = wave(400, 0.03, 3);
+        let last = pts.len() - 1;
+        for degrees in [&[1usize][..], &[2], &[3], &[1, 2, 3]] {
+            let opts = ToleranceOptions::default()
+                .with_degrees(degrees)
+                .with_pin_ends(true);
+            let fit = fit_to_tolerance(&pts, None, 2e-5, &opts).unwrap();
+            assert!(fit.tolerance_met, "{degrees:?}");
+            let c = fit.spline.control_points();
+            assert_eq!(c.get(0), pts.get(0), "{degrees:?}");
+            assert_eq!(c.get(c.len() - 1), pts.get(last), "{degrees:?}");
+        }
+        // A closed line pinned at its seam closes exactly.
+        let rows: Vec<[f64; 3]> = (0..=200)
+            .map(|i| {
+                let a = std::f64::consts::TAU * (i % 200) as f64 / 200.0;
+                let lat = 0.2 + 0.05 * a.sin() + 0.01 * (5.0 * a).cos();
+                let lon = 0.08 * a.cos();
+                [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
+            })
+            .collect();
+        let ring = PointSet::try_from_rows(&rows).unwrap();
+        let opts = ToleranceOptions::default().with_pin_ends(true);
+        let fit = fit_to_tolerance(&ring, None, 1e-5, &opts).unwrap();
+        assert!(fit.tolerance_met);
+        let c = fit.spline.control_points();
+        assert_eq!(c.get(0), c.get(c.len() - 1));
     }
 
     #[test]

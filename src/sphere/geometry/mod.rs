@@ -1,5 +1,6 @@
 //! Geometry of S^n: unit vectors, geodesic angles, SLERP and the log/exp maps every curve and
 //! fitter builds on.
 
+pub mod crossing;
 pub mod densify;
 pub mod point;

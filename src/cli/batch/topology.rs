@@ -1,0 +1,161 @@
+//! `spherefit fit --topology shared`: the input read whole and fitted as one polygon coverage
+//! ([`crate::earth::topology`]), written as GeoJSON or (`--output-format topojson`) TopoJSON.
+
+use super::input::Format;
+use super::{job, stderr_line, BatchArgs, FitArgs};
+use crate::cli::Failure;
+use crate::earth::topology::{fit_coverage, validate, OutputFormat, Topology};
+use crate::earth::Document;
+use clap::{Args, ValueEnum};
+use std::io::{self, Read, Write};
+use std::time::Instant;
+
+/// How features relate (query parameter `topology`).
+#[derive(Debug, Args)]
+#[command(next_help_heading = "Topology")]
+pub(crate) struct TopologyArgs {
+    /// per-feature: every line and ring on its own; shared: the polygons of the input are one
+    /// coverage, each border shared by neighbours fitted once (needs --tolerance-m; the input
+    /// is read whole, one GeoJSON document)
+    #[arg(long, value_name = "TOPOLOGY", default_value = "per-feature", value_parser = parse_topology)]
+    pub topology: Topology,
+}
+
+fn parse_topology(s: &str) -> Result<Topology, String> {
+    s.parse()
+        .map_err(|_| format!("{s:?}: use per-feature or shared"))
+}
+
+/// TopoJSON is written only by `--topology shared`, and never read.
+pub(super) fn check_formats(batch: &BatchArgs) -> Result<(), Failure> {
+    if batch.format == Format::Topojson {
+        return Err(Failure::input(
+            "--format topojson: TopoJSON is an output format here (--output-format topojson with --topology shared); give GeoJSON input",
+        ));
+    }
+    if batch.output_format == Format::Topojson {
+        return Err(Failure::input(
+            "--output-format topojson: TopoJSON output is made of shared arcs: give --topology shared too",
+        ));
+    }
+    Ok(())
+}
+
+/// Runs the coverage fit.
+pub(super) fn fit(a: FitArgs) -> Result<(), Failure> {
+    let started = Instant::now();
+    let batch = &a.batch;
+    let time = a.fit.time(a.output.spacing_s.is_some())?;
+    if time.fit_in_time.is_some() {
+        return Err(Failure::input(
+            "--topology shared: fits polygon rings, which carry no times (drop --parameterization time, --time-property and --spacing-s)",
+        ));
+    }
+    let job = job(a.fit.operation(), a.fit.limits(), time, &a.output)?;
+    if batch.format == Format::Topojson {
+        return Err(Failure::input(
+            "--format topojson: TopoJSON is an output format here; give GeoJSON input",
+        ));
+    }
+    let format =
+        match batch.output_format {
+            Format::Topojson => OutputFormat::TopoJson,
+            Format::Auto | Format::Geojson => OutputFormat::GeoJson,
+            other => {
+                return Err(Failure::input(format!(
+                "--output-format {}: --topology shared writes one document: geojson or topojson",
+                other.to_possible_value().map_or("?".into(), |v| v.get_name().to_string())
+            )))
+            }
+        };
+    validate(&job, Topology::Shared, format).map_err(|e| {
+        Failure::input(format!(
+            "--topology shared: {}",
+            e.problem
+                .to_string()
+                .replace("tolerance_m", "--tolerance-m")
+        ))
+    })?;
+    if let Some(n) = batch.threads {
+        if n == 0 {
+            return Err(Failure::input("--threads: use 1 or more"));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(|e| Failure::input(format!("--threads: {e}")))?;
+    }
+    if batch.inputs.len() > 1 {
+        return Err(Failure::input(
+            "--topology shared fits one coverage: give one input (merge the files first)",
+        ));
+    }
+    let (name, bytes) = match batch.inputs.first().filter(|p| p.as_os_str() != "-") {
+        Some(p) => (
+            p.display().to_string(),
+            std::fs::read(p).map_err(|e| Failure::input(format!("{}: {e}", p.display())))?,
+        ),
+        None => {
+            let mut b = Vec::new();
+            io::stdin()
+                .read_to_end(&mut b)
+                .map_err(|e| Failure::input(format!("stdin: {e}")))?;
+            ("stdin".to_string(), b)
+        }
+    };
+    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
+    let value: serde_json::Value = serde_json::from_slice(text)
+        .map_err(|e| Failure::input(format!("{name}: not a GeoJSON document: {e}")))?;
+    let fail = |e: crate::earth::EarthError| Failure {
+        status: 1,
+        message: format!("{name}: {e}"),
+    };
+    let doc = Document::parse(value, false).map_err(fail)?;
+    let coverage = fit_coverage(doc, &job).map_err(fail)?;
+    let report = coverage.report.clone();
+    let text = match format {
+        OutputFormat::TopoJson => {
+            crate::earth::topojson::to_bytes(&crate::earth::topojson::to_topology(coverage))
+        }
+        OutputFormat::GeoJson => serde_json::to_vec(&coverage.into_feature_collection())
+            .map_err(|e| Failure::input(e.to_string()))?,
+    };
+    let out_path = batch.output.as_ref().filter(|p| p.as_os_str() != "-");
+    let written = match out_path {
+        Some(p) => std::fs::write(p, [&text[..], b"\n"].concat())
+            .map_err(|e| format!("{}: cannot write: {e}", p.display())),
+        None => {
+            let mut o = io::stdout().lock();
+            o.write_all(&text)
+                .and_then(|_| o.write_all(b"\n"))
+                .map_err(|e| format!("stdout: cannot write: {e}"))
+        }
+    };
+    written.map_err(Failure::input)?;
+    let seconds = started.elapsed().as_secs_f64();
+    if !batch.quiet {
+        stderr_line(&format!(
+            "spherefit fit --topology shared: {} polygon features, {} arcs ({} shared), {} points in, {} numbers stored (arcs once), compression {}, two-way error <= {} m, tolerance met: {}, {seconds:.2} s",
+            report["polygon_features"],
+            report["arc_count"],
+            report["shared_arcs"],
+            report["input_points"],
+            report["stored_numbers"],
+            report["compression_ratio"],
+            report["two_way_distance_m"],
+            report["tolerance_met"],
+        ));
+    }
+    if let Some(p) = &batch.stats {
+        let mut r = report;
+        r["seconds"] = serde_json::json!(seconds);
+        let line = r.to_string();
+        if p.as_os_str() == "-" {
+            stderr_line(&line);
+        } else {
+            std::fs::write(p, format!("{line}\n"))
+                .map_err(|e| Failure::input(format!("--stats: {}: {e}", p.display())))?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,659 @@
+//! Coverages fitted with shared topology (`topology=shared`): real coverages (US states from
+//! us-atlas, the world-atlas 110m countries) and a synthetic one with a hole, an enclave, an
+//! island, an antimeridian-crossing feature and a polar ring. Everything is checked on the
+//! output geometry, recomputed independently of the fitter: neighbours' output borders made of
+//! the same segments bit for bit, every input vertex within the tolerance of its feature's
+//! output boundary, geo's validity checks, and GDAL reading the TopoJSON.
+
+use crate::helpers::{fixture_path, read_fixture_json, run_spherefit, EARTH_RADIUS_M};
+use geo::{Area, BooleanOps, Contains, Coord, LineString, MultiPolygon, Polygon, Validation};
+use serde_json::{json, Value};
+use spherefit::earth::topology::{fit_coverage, Coverage};
+use spherefit::earth::{Document, Job, Operation};
+use spherefit::sphere::FitOptions;
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
+use std::process::Command;
+
+fn job(tolerance_m: f64) -> Job {
+    Job {
+        operation: Operation::FitToTolerance {
+            options: FitOptions::faithful(),
+            tolerance_m,
+        },
+        ..Job::fit(FitOptions::default())
+    }
+}
+
+fn fit(doc: &Value, tolerance_m: f64) -> Coverage {
+    fit_coverage(
+        Document::parse(doc.clone(), false).unwrap(),
+        &job(tolerance_m),
+    )
+    .unwrap()
+}
+
+type Ring = Vec<[f64; 2]>;
+
+/// The rings of a Polygon or MultiPolygon geometry, as polygons of rings.
+fn polygons(g: &Value) -> Vec<Vec<Ring>> {
+    let ring = |r: &Value| -> Ring {
+        r.as_array()
+            .unwrap()
+            .iter()
+            .map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()])
+            .collect()
+    };
+    let poly = |p: &Value| -> Vec<Ring> { p.as_array().unwrap().iter().map(ring).collect() };
+    match g["type"].as_str().unwrap() {
+        "Polygon" => vec![poly(&g["coordinates"])],
+        "MultiPolygon" => g["coordinates"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(poly)
+            .collect(),
+        t => panic!("not a polygon: {t}"),
+    }
+}
+
+fn unit(p: &[f64; 2]) -> [f64; 3] {
+    let (lo, la) = (p[0].to_radians(), p[1].to_radians());
+    [la.cos() * lo.cos(), la.cos() * lo.sin(), la.sin()]
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn angle(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    let c = cross(a, b);
+    dot(&c, &c).sqrt().atan2(dot(a, b))
+}
+
+/// Geodesic distance (radians) from `p` to the great-circle segment `a`-`b`.
+fn to_segment(p: &[f64; 3], a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    let n = cross(a, b);
+    let len = dot(&n, &n).sqrt();
+    let ends = angle(p, a).min(angle(p, b));
+    if len < 1e-15 {
+        return ends;
+    }
+    let n = [n[0] / len, n[1] / len, n[2] / len];
+    let s = dot(&n, p);
+    // The foot point on the great circle, and whether it lies between a and b.
+    let f = [p[0] - s * n[0], p[1] - s * n[1], p[2] - s * n[2]];
+    if dot(&cross(a, &f), &n) >= 0.0 && dot(&cross(&f, b), &n) >= 0.0 {
+        s.clamp(-1.0, 1.0).asin().abs()
+    } else {
+        ends
+    }
+}
+
+/// Largest distance (metres) from any input vertex of a feature to that feature's output
+/// boundary (all its rings), computed from scratch.
+fn worst_vertex_distance_m(input: &Value, output: &Value) -> f64 {
+    let segments: Vec<([f64; 3], [f64; 3])> = polygons(output)
+        .iter()
+        .flatten()
+        .flat_map(|r| {
+            r.windows(2)
+                .map(|w| (unit(&w[0]), unit(&w[1])))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let mut worst = 0.0f64;
+    for v in polygons(input).iter().flatten().flatten() {
+        let p = unit(v);
+        let d = segments
+            .iter()
+            .map(|(a, b)| to_segment(&p, a, b))
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(d * EARTH_RADIUS_M);
+    }
+    worst
+}
+
+/// A position's bits.
+type Bits = (u64, u64);
+
+/// A segment as an unordered pair of positions' bits.
+type Segment = (Bits, Bits);
+
+fn key(p: &[f64; 2]) -> Bits {
+    (p[0].to_bits(), p[1].to_bits())
+}
+
+/// Every segment of a feature's output rings, as an unordered pair of bit patterns.
+fn segment_set(g: &Value) -> HashSet<Segment> {
+    let mut s = HashSet::new();
+    for r in polygons(g).iter().flatten() {
+        for w in r.windows(2) {
+            let (a, b) = (key(&w[0]), key(&w[1]));
+            s.insert(if a <= b { (a, b) } else { (b, a) });
+        }
+    }
+    s
+}
+
+/// For every pair of features sharing an input border: each vertex inside that border is
+/// within the tolerance of the output segments both features hold, bit for bit (so their
+/// common border is one line, and it follows the input). Returns the number of neighbour
+/// pairs and shared vertices checked.
+fn assert_neighbours_share_output(
+    input: &Value,
+    output: &[Value],
+    tolerance_m: f64,
+) -> (usize, usize) {
+    let feats = input["features"].as_array().unwrap();
+    // Input edges -> features using them.
+    let mut edges: HashMap<Segment, Vec<usize>> = HashMap::new();
+    for (i, f) in feats.iter().enumerate() {
+        if !f["geometry"]["type"].as_str().unwrap().ends_with("Polygon") {
+            continue;
+        }
+        for r in polygons(&f["geometry"]).iter().flatten() {
+            for w in r.windows(2) {
+                let (a, b) = (key(&w[0]), key(&w[1]));
+                let e = if a <= b { (a, b) } else { (b, a) };
+                let users = edges.entry(e).or_default();
+                if !users.contains(&i) {
+                    users.push(i);
+                }
+            }
+        }
+    }
+    // Vertices inside a border shared by two features: ends of two edges both shared by
+    // exactly that pair (junctions, where the nearest output segment may be a third
+    // feature's border, are left out).
+    let mut ends: HashMap<((usize, usize), Bits), usize> = HashMap::new();
+    for ((a, b), users) in &edges {
+        if users.len() == 2 {
+            let pair = (users[0].min(users[1]), users[0].max(users[1]));
+            for k in [a, b] {
+                *ends.entry((pair, *k)).or_default() += 1;
+            }
+        }
+    }
+    let mut shared: HashMap<(usize, usize), Vec<[f64; 2]>> = HashMap::new();
+    for ((pair, k), count) in ends {
+        if count >= 2 {
+            shared
+                .entry(pair)
+                .or_default()
+                .push([f64::from_bits(k.0), f64::from_bits(k.1)]);
+        }
+    }
+    let mut vertices = 0;
+    for ((i, j), pts) in &shared {
+        let (gi, gj) = (&output[*i]["geometry"], &output[*j]["geometry"]);
+        let si = segment_set(gi);
+        let sj = segment_set(gj);
+        // The output segments both features hold, bit for bit.
+        let common: Vec<([f64; 3], [f64; 3])> = si
+            .intersection(&sj)
+            .map(|s| {
+                (
+                    unit(&[f64::from_bits(s.0 .0), f64::from_bits(s.0 .1)]),
+                    unit(&[f64::from_bits(s.1 .0), f64::from_bits(s.1 .1)]),
+                )
+            })
+            .collect();
+        for v in pts {
+            let p = unit(v);
+            let d = common
+                .iter()
+                .map(|(a, b)| to_segment(&p, a, b))
+                .fold(f64::INFINITY, f64::min)
+                * EARTH_RADIUS_M;
+            assert!(
+                d <= tolerance_m,
+                "features {i} and {j}: shared vertex {v:?} is {d} m from the output border they have in common"
+            );
+            vertices += 1;
+        }
+    }
+    (shared.len(), vertices)
+}
+
+fn geo_polygons(g: &Value) -> MultiPolygon<f64> {
+    let ls = |r: &Ring| LineString::new(r.iter().map(|p| Coord { x: p[0], y: p[1] }).collect());
+    MultiPolygon::new(
+        polygons(g)
+            .iter()
+            .map(|p| Polygon::new(ls(&p[0]), p[1..].iter().map(ls).collect()))
+            .collect(),
+    )
+}
+
+/// Checks a fitted real coverage: shared borders identical, the tolerance met by every input
+/// vertex, rings valid where the input's are, neighbours not overlapping.
+fn check_coverage(name: &str, tolerance_m: f64) -> Coverage {
+    let input = read_fixture_json(name);
+    let c = fit(&input, tolerance_m);
+    assert_eq!(c.report["tolerance_met"], true, "{}", c.report);
+    let (pairs, vertices) = assert_neighbours_share_output(&input, &c.features, tolerance_m);
+    assert!(
+        pairs > 5 && vertices > 100,
+        "{pairs} pairs, {vertices} vertices"
+    );
+    let feats = input["features"].as_array().unwrap();
+    for (i, (f, o)) in feats.iter().zip(&c.features).enumerate() {
+        let d = worst_vertex_distance_m(&f["geometry"], &o["geometry"]);
+        assert!(
+            d <= tolerance_m,
+            "{name} feature {i}: an input vertex {d} m from the output"
+        );
+        let fit = &o["properties"]["fit"];
+        assert_eq!(fit["tolerance_met"], true, "feature {i}");
+        if fit["antimeridian_split"] == false && geo_polygons(&f["geometry"]).is_valid() {
+            let out = geo_polygons(&o["geometry"]);
+            assert!(
+                out.is_valid(),
+                "{name} feature {i} ({}): {:?}",
+                f["properties"],
+                out.validation_errors()
+            );
+        }
+    }
+    // Neighbours do not overlap (beyond the boolean operations' rounding).
+    let shapes: Vec<MultiPolygon<f64>> = c
+        .features
+        .iter()
+        .map(|o| geo_polygons(&o["geometry"]))
+        .collect();
+    let inputs: Vec<MultiPolygon<f64>> =
+        feats.iter().map(|f| geo_polygons(&f["geometry"])).collect();
+    let mut users: HashMap<usize, Vec<usize>> = HashMap::new();
+    for (fi, rings) in c.feature_rings.iter().enumerate() {
+        for u in rings.iter().flatten().flatten().flatten() {
+            users.entry(u.arc).or_default().push(fi);
+        }
+    }
+    let mut pairs_checked = HashSet::new();
+    for fs in users.values() {
+        if let [a, b] = fs[..] {
+            if a != b && pairs_checked.insert((a.min(b), a.max(b))) {
+                let overlap = shapes[a].intersection(&shapes[b]).unsigned_area();
+                let before = inputs[a].intersection(&inputs[b]).unsigned_area();
+                let smaller = shapes[a].unsigned_area().min(shapes[b].unsigned_area());
+                assert!(
+                    overlap <= before + 1e-9 * smaller,
+                    "features {a} and {b} overlap: {overlap} (input: {before})"
+                );
+            }
+        }
+    }
+    c
+}
+
+#[test]
+fn us_states_share_their_borders_exactly_at_1_km() {
+    let c = check_coverage("coverage_us_states.geojson", 1000.0);
+    // The Four Corners: one vertex where four states meet.
+    assert!(c.report["junctions"].as_u64().unwrap() >= 10);
+    let once = c.report["stored_numbers"].as_u64().unwrap();
+    let sum = c.report["stored_numbers_per_feature_sum"].as_u64().unwrap();
+    assert!(once < sum, "{once} vs {sum}");
+}
+
+#[test]
+fn world_110m_countries_share_their_borders_exactly_at_1_km() {
+    let c = check_coverage("coverage_world_110m.geojson", 1000.0);
+    assert_eq!(c.features.len(), 177);
+    // Lesotho is an enclave: the hole of South Africa, one closed arc used by both.
+    let idx = |name: &str| {
+        c.features
+            .iter()
+            .position(|f| f["properties"]["name"] == name)
+            .unwrap()
+    };
+    // Areas on the sphere, across the antimeridian and around a pole: Russia about 17.1
+    // million km² (16.9 at 1:110M), Antarctica about 12-14 million km², Fiji about 18,000 km².
+    let area = |name: &str| {
+        c.features[idx(name)]["properties"]["fit"]["area_m2"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        (1.6e13..1.8e13).contains(&area("Russia")),
+        "{}",
+        area("Russia")
+    );
+    assert!(
+        (1.1e13..1.45e13).contains(&area("Antarctica")),
+        "{}",
+        area("Antarctica")
+    );
+    assert!((1.5e10..2.2e10).contains(&area("Fiji")), "{}", area("Fiji"));
+    assert!(
+        c.report["max_area_change"].as_f64().unwrap() < 0.01,
+        "{}",
+        c.report
+    );
+    assert_eq!(
+        c.report["dropped_rings"],
+        json!(["/features/95/geometry/coordinates/0/0"])
+    );
+    assert_eq!(c.report["crossings_left"], json!([]));
+    let (za, ls) = (idx("South Africa"), idx("Lesotho"));
+    let lesotho = &c.feature_rings[ls].as_ref().unwrap()[0][0];
+    assert_eq!(lesotho.len(), 1);
+    assert!(c.graph.arcs[lesotho[0].arc].closed);
+    let za_rings = c.feature_rings[za].as_ref().unwrap();
+    assert!(za_rings.iter().flatten().any(|r| r.len() == 1
+        && r[0].arc == lesotho[0].arc
+        && r[0].reversed != lesotho[0].reversed));
+    let hole = geo_polygons(&c.features[za]["geometry"]);
+    let enclave = geo_polygons(&c.features[ls]["geometry"]);
+    assert!(hole.0.iter().any(|p| p.interiors().len() == 1));
+    assert_eq!(hole.intersection(&enclave).unsigned_area(), 0.0);
+}
+
+/// A coverage with a hole, an enclave filling it, an island, a feature across the antimeridian
+/// and a ring around the north pole.
+fn synthetic() -> Value {
+    let wavy = |a: [f64; 2], b: [f64; 2], n: usize, amp: f64| -> Vec<[f64; 2]> {
+        (0..n)
+            .map(|i| {
+                let t = i as f64 / n as f64;
+                let s = amp * (std::f64::consts::PI * 6.0 * t).sin();
+                [a[0] + t * (b[0] - a[0]) + s, a[1] + t * (b[1] - a[1]) + s]
+            })
+            .collect()
+    };
+    let closed = |mut r: Vec<[f64; 2]>| {
+        r.push(r[0]);
+        r
+    };
+    let mut west = wavy([10.0, 0.0], [10.0, 10.0], 60, 0.1);
+    let border = west.clone();
+    west.extend([[10.0, 10.0], [0.0, 10.0], [0.0, 0.0]]);
+    let hole: Vec<[f64; 2]> = (0..80)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / 80.0;
+            [
+                5.0 + 2.0 * a.cos(),
+                5.0 + 2.0 * a.sin() + 0.2 * (4.0 * a).sin(),
+            ]
+        })
+        .collect();
+    let mut east: Vec<[f64; 2]> = vec![[10.0, 10.0]];
+    east.extend(border.iter().rev());
+    east.extend([[20.0, 0.0], [20.0, 10.0]]);
+    let island: Vec<[f64; 2]> = (0..50)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / 50.0;
+            [30.0 + a.cos(), 5.0 + 0.5 * a.sin()]
+        })
+        .collect();
+    let across: Vec<[f64; 2]> = (0..100)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / 100.0;
+            let lon = 178.0 + 5.0 * a.cos();
+            [
+                if lon > 180.0 { lon - 360.0 } else { lon },
+                -20.0 + 3.0 * a.sin(),
+            ]
+        })
+        .collect();
+    let polar: Vec<[f64; 2]> = (0..120)
+        .map(|i| {
+            let lon = -180.0 + 3.0 * i as f64;
+            let l = lon.to_radians();
+            [
+                lon,
+                80.0 + 0.5 * (5.0 * l + 0.3).sin() + 0.1 * (11.0 * l).cos(),
+            ]
+        })
+        .collect();
+    let hole_rev: Vec<[f64; 2]> = hole.iter().rev().copied().collect();
+    json!({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "id": "west", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [closed(west), closed(hole_rev)]}},
+        {"type": "Feature", "id": "enclave", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [closed(hole)]}},
+        {"type": "Feature", "id": "east", "properties": {}, "geometry": {"type": "MultiPolygon", "coordinates": [[closed(east)], [closed(island)]]}},
+        {"type": "Feature", "id": "across", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [closed(across)]}},
+        {"type": "Feature", "id": "polar", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [closed(polar)]}},
+        {"type": "Feature", "id": "line", "properties": {"k": 1}, "geometry": {"type": "LineString", "coordinates": wavy([40.0, 0.0], [45.0, 5.0], 40, 0.05)}}
+    ]})
+}
+
+#[test]
+fn holes_enclaves_islands_the_antimeridian_and_a_pole() {
+    let input = synthetic();
+    let c = fit(&input, 500.0);
+    assert_eq!(c.report["tolerance_met"], true, "{}", c.report);
+    let feats = input["features"].as_array().unwrap();
+    for (i, (f, o)) in feats.iter().zip(&c.features).enumerate().take(5) {
+        let d = worst_vertex_distance_m(&f["geometry"], &o["geometry"]);
+        assert!(
+            d <= 500.0,
+            "feature {i}: an input vertex {d} m from the output"
+        );
+    }
+    let (pairs, _) = assert_neighbours_share_output(&input, &c.features, 500.0);
+    assert_eq!(pairs, 2); // west and east, west (its hole) and the enclave
+                          // The enclave's ring is the hole of `west`, bit for bit (the same positions, reversed).
+    let west = polygons(&c.features[0]["geometry"]);
+    let enclave = polygons(&c.features[1]["geometry"]);
+    let as_set = |r: &Ring| r.iter().map(key).collect::<HashSet<_>>();
+    assert_eq!(as_set(&west[0][1]), as_set(&enclave[0][0]));
+    // The hole stays inside its shell; the island is one closed arc.
+    let shell = Polygon::new(
+        LineString::new(
+            west[0][0]
+                .iter()
+                .map(|p| Coord { x: p[0], y: p[1] })
+                .collect(),
+        ),
+        vec![],
+    );
+    let hole = LineString::new(
+        west[0][1]
+            .iter()
+            .map(|p| Coord { x: p[0], y: p[1] })
+            .collect(),
+    );
+    assert!(shell.contains(&hole));
+    assert!(geo_polygons(&c.features[0]["geometry"]).is_valid());
+    // Across the antimeridian: split into two polygons, no segment longer than 180 degrees.
+    let across = &c.features[3];
+    assert_eq!(across["geometry"]["type"], "MultiPolygon");
+    assert_eq!(across["properties"]["fit"]["antimeridian_split"], true);
+    for r in polygons(&across["geometry"]).iter().flatten() {
+        assert!(r.windows(2).all(|w| (w[1][0] - w[0][0]).abs() <= 180.0));
+    }
+    // Around the pole: closed along it, and it still holds the pole's side.
+    let polar = geo_polygons(&c.features[4]["geometry"]);
+    assert!(polar.is_valid(), "{:?}", polar.validation_errors());
+    assert!(polar.contains(&geo::Point::new(0.0, 89.0)));
+    // The line is fitted on its own, properties kept.
+    assert_eq!(c.features[5]["properties"]["k"], 1);
+    assert_eq!(c.features[5]["geometry"]["type"], "LineString");
+    assert!(c.features[5]["properties"]["fit"]["tolerance_met"] == true);
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("topology-{name}"));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Decodes a TopoJSON polygon ring (arc indices) into positions, as a reader does.
+fn decode_ring(arcs: &[Value], refs: &Value) -> Ring {
+    let mut out: Ring = Vec::new();
+    for r in refs.as_array().unwrap() {
+        let i = r.as_i64().unwrap();
+        let (idx, rev) = if i < 0 {
+            ((-i - 1) as usize, true)
+        } else {
+            (i as usize, false)
+        };
+        let mut pts: Ring = arcs[idx]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()])
+            .collect();
+        if rev {
+            pts.reverse();
+        }
+        if !out.is_empty() {
+            assert_eq!(out.last(), pts.first(), "arcs of a ring meet end to start");
+            pts.remove(0);
+        }
+        out.extend(pts);
+    }
+    out
+}
+
+#[test]
+fn the_cli_writes_topojson_that_gdal_reads() {
+    let dir = scratch("cli");
+    let topo = dir.join("states.topojson");
+    let geo = dir.join("states.geojson");
+    let input = fixture_path("coverage_us_states.geojson");
+    for (path, format) in [(&topo, "topojson"), (&geo, "geojson")] {
+        let o = run_spherefit(
+            &[
+                "fit",
+                "--topology",
+                "shared",
+                "--tolerance-m",
+                "1000",
+                "--output-format",
+                format,
+                &input,
+                "-o",
+                path.to_str().unwrap(),
+            ],
+            None,
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(String::from_utf8_lossy(&o.stderr).contains("shared"));
+    }
+    let t: Value = serde_json::from_slice(&std::fs::read(&topo).unwrap()).unwrap();
+    let g: Value = serde_json::from_slice(&std::fs::read(&geo).unwrap()).unwrap();
+    assert_eq!(t["type"], "Topology");
+    let arcs = t["arcs"].as_array().unwrap();
+    assert_eq!(
+        arcs.len() as u64,
+        t["spherefit"]["arc_count"].as_u64().unwrap()
+    );
+    assert!(t["spherefit"]["arcs"][0]["spline"]["degree"].is_u64());
+    // Every ring decoded from the arcs is the GeoJSON output's ring.
+    let geoms = t["objects"]["collection"]["geometries"].as_array().unwrap();
+    let feats = g["features"].as_array().unwrap();
+    assert_eq!(geoms.len(), feats.len());
+    for (tg, f) in geoms.iter().zip(feats) {
+        assert_eq!(tg["id"], f["id"]);
+        let rings: Vec<Ring> = match tg["type"].as_str().unwrap() {
+            "Polygon" => tg["arcs"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|r| decode_ring(arcs, r))
+                .collect(),
+            _ => tg["arcs"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|p| p.as_array().unwrap().iter().map(|r| decode_ring(arcs, r)))
+                .collect(),
+        };
+        let expected: Vec<Ring> = polygons(&f["geometry"]).into_iter().flatten().collect();
+        assert_eq!(rings, expected, "feature {}", f["id"]);
+    }
+    // Without --topology shared there is no TopoJSON.
+    let o = run_spherefit(
+        &[
+            "fit",
+            "--tolerance-m",
+            "1000",
+            "--output-format",
+            "topojson",
+            &input,
+        ],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    let o = run_spherefit(&["fit", "--topology", "shared", &input], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--tolerance-m"));
+    let info = match Command::new("ogrinfo")
+        .args(["-ro", "-al", "-so"])
+        .arg(&topo)
+        .output()
+    {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            println!("NOTICE: ogrinfo (GDAL, Debian gdal-bin) is not installed: the GDAL half of this test was skipped");
+            return;
+        }
+        Err(e) => panic!("ogrinfo: {e}"),
+        Ok(o) => {
+            let text = format!(
+                "{}{}",
+                String::from_utf8_lossy(&o.stderr),
+                String::from_utf8_lossy(&o.stdout)
+            );
+            assert!(o.status.success(), "ogrinfo failed: {text}");
+            text
+        }
+    };
+    assert!(info.contains("TopoJSON"), "{info}");
+    assert!(info.contains("Feature Count: 11"), "{info}");
+    assert!(!info.contains("ERROR"), "{info}");
+}
+
+#[tokio::test]
+async fn the_service_fits_coverages_on_request() {
+    use axum::body::Body;
+    use axum::http::{header, Request};
+    use spherefit::service::{router, AppState, ServiceConfig};
+    use tower::ServiceExt;
+    let app = router(AppState::new(ServiceConfig::default()));
+    let body = serde_json::to_vec(&synthetic()).unwrap();
+    let send = |q: &str| {
+        let req = Request::post(format!("/v1/fit?{q}"))
+            .header(header::CONTENT_TYPE, "application/geo+json")
+            .body(Body::from(body.clone()))
+            .unwrap();
+        let app = app.clone();
+        async move {
+            let res = app.oneshot(req).await.unwrap();
+            let status = res.status().as_u16();
+            let ct = res.headers()[header::CONTENT_TYPE]
+                .to_str()
+                .unwrap()
+                .to_string();
+            let b = axum::body::to_bytes(res.into_body(), usize::MAX)
+                .await
+                .unwrap();
+            (status, ct, serde_json::from_slice::<Value>(&b).unwrap())
+        }
+    };
+    let (s, ct, v) = send("topology=shared&tolerance_m=500").await;
+    assert_eq!((s, ct.as_str()), (200, "application/geo+json"), "{v}");
+    assert_eq!(v["topology"]["tolerance_met"], true);
+    assert_eq!(v["features"][0]["properties"]["fit"]["topology"], "shared");
+    let (s, ct, v) = send("topology=shared&tolerance_m=500&format=topojson").await;
+    assert_eq!((s, ct.as_str()), (200, "application/json"), "{v}");
+    assert_eq!(v["type"], "Topology");
+    let (s, _, v) = send("topology=shared").await;
+    assert_eq!((s, v["parameter"].as_str()), (422, Some("topology")), "{v}");
+    let (s, _, v) = send("tolerance_m=500&format=topojson").await;
+    assert_eq!((s, v["parameter"].as_str()), (422, Some("format")), "{v}");
+    // Polygon rings carry no times.
+    let (s, _, v) = send("topology=shared&tolerance_m=500&parameterization=time").await;
+    assert_eq!((s, v["parameter"].as_str()), (422, Some("topology")), "{v}");
+    let (s, _, v) = send("topology=maybe&tolerance_m=500").await;
+    assert_eq!((s, v["parameter"].as_str()), (400, Some("topology")), "{v}");
+}
