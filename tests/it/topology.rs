@@ -516,7 +516,7 @@ fn decode_ring(arcs: &[Value], refs: &Value) -> Ring {
 }
 
 #[test]
-fn the_cli_writes_topojson_that_gdal_reads() {
+fn the_cli_writes_topojson_that_gdal_and_mapshaper_read() {
     let dir = scratch("cli");
     let topo = dir.join("states.topojson");
     let geo = dir.join("states.geojson");
@@ -588,6 +588,7 @@ fn the_cli_writes_topojson_that_gdal_reads() {
     let o = run_spherefit(&["fit", "--topology", "shared", &input], None);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--tolerance-m"));
+    mapshaper_reads(&topo, 11);
     let info = match Command::new("ogrinfo")
         .args(["-ro", "-al", "-so"])
         .arg(&topo)
@@ -611,6 +612,42 @@ fn the_cli_writes_topojson_that_gdal_reads() {
     assert!(info.contains("TopoJSON"), "{info}");
     assert!(info.contains("Feature Count: 11"), "{info}");
     assert!(!info.contains("ERROR"), "{info}");
+}
+
+/// mapshaper (npm, `npm ci --prefix scripts/coverage`, which `.ci/run` does) reads the TopoJSON
+/// and finds every feature. Skipped with a notice where it is not installed, unless
+/// `SPHEREFIT_TEST_TOOLS=required` (set by `.ci/run`).
+fn mapshaper_reads(topo: &std::path::Path, features: usize) {
+    let bin = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scripts/coverage/node_modules/.bin/mapshaper");
+    if !bin.exists() {
+        assert!(
+            std::env::var("SPHEREFIT_TEST_TOOLS").as_deref() != Ok("required"),
+            "mapshaper is not installed: npm ci --prefix scripts/coverage"
+        );
+        println!("NOTICE: mapshaper (npm ci --prefix scripts/coverage) is not installed: the mapshaper half of this test was skipped");
+        return;
+    }
+    let o = Command::new(&bin)
+        .arg("-i")
+        .arg(topo)
+        .arg("-info")
+        .output()
+        .expect("mapshaper runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stderr),
+        String::from_utf8_lossy(&o.stdout)
+    );
+    assert!(o.status.success(), "mapshaper failed: {text}");
+    // Its -info table, with the padding collapsed: "Type: polygon", "Records: 11".
+    let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        words.contains(&format!("Records: {features}")),
+        "mapshaper: {text}"
+    );
+    assert!(words.contains("Type: polygon"), "mapshaper: {text}");
+    assert!(!words.contains("[error]"), "mapshaper: {text}");
 }
 
 #[tokio::test]
