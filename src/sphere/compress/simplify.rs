@@ -146,7 +146,27 @@ pub fn douglas_peucker(points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
 }
 
 fn douglas_peucker_dim<D: Dim>(d: D, points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
-    let n = points.len();
+    split_until_within(points.len(), tolerance_rad, |i0, i1| {
+        let frame = ArcFrame::new(d, points.get(i0), points.get(i1));
+        if frame.antipodal {
+            return None;
+        }
+        Some(worst_of(i0, i1, |j| frame.distance(d, points.get(j))))
+    })
+}
+
+/// The Douglas–Peucker recursion, on an explicit stack: ends 0 and n − 1 kept, and a span
+/// (i0, i1) split at its worst interior point while that point's error exceeds `tolerance`.
+/// `worst(i0, i1)` gives (error, index) of the worst point, or `None` when the span's kept
+/// ends are (nearly) antipodal: such a span is split at its middle.
+fn split_until_within(
+    n: usize,
+    tolerance: f64,
+    mut worst: impl FnMut(usize, usize) -> Option<(f64, usize)>,
+) -> Vec<usize> {
+    if n <= 2 {
+        return (0..n).collect();
+    }
     let mut keep = vec![false; n];
     keep[0] = true;
     keep[n - 1] = true;
@@ -155,19 +175,9 @@ fn douglas_peucker_dim<D: Dim>(d: D, points: &PointSet, tolerance_rad: f64) -> V
         if i1 <= i0 + 1 {
             continue;
         }
-        let frame = ArcFrame::new(d, points.get(i0), points.get(i1));
-        let split = if frame.antipodal {
-            Some((i0 + i1) / 2)
-        } else {
-            let (mut worst, mut at) = (-1.0, i0 + 1);
-            for j in i0 + 1..i1 {
-                let e = frame.distance(d, points.get(j));
-                if e > worst {
-                    worst = e;
-                    at = j;
-                }
-            }
-            (worst > tolerance_rad).then_some(at)
+        let split = match worst(i0, i1) {
+            None => Some((i0 + i1) / 2),
+            Some((e, at)) => (e > tolerance).then_some(at),
         };
         if let Some(j) = split {
             keep[j] = true;
@@ -176,6 +186,20 @@ fn douglas_peucker_dim<D: Dim>(d: D, points: &PointSet, tolerance_rad: f64) -> V
         }
     }
     (0..n).filter(|&i| keep[i]).collect()
+}
+
+/// The largest `error(j)` over the interior points of (i0, i1), and where (the first of
+/// equals).
+fn worst_of(i0: usize, i1: usize, mut error: impl FnMut(usize) -> f64) -> (f64, usize) {
+    let (mut worst, mut at) = (-1.0, i0 + 1);
+    for j in i0 + 1..i1 {
+        let e = error(j);
+        if e > worst {
+            worst = e;
+            at = j;
+        }
+    }
+    (worst, at)
 }
 
 /// Douglas–Peucker for lines matched in order: every point within `tolerance_rad` of its chord
@@ -202,57 +226,33 @@ fn douglas_peucker_dim<D: Dim>(d: D, points: &PointSet, tolerance_rad: f64) -> V
 /// assert_eq!(douglas_peucker_ordered(&line, 1e-3), vec![0, 1, 2, 3]);
 /// ```
 pub fn douglas_peucker_ordered(points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
-    let n = points.len();
-    if n <= 2 {
-        return (0..n).collect();
-    }
     crate::with_dim!(points.dim(), |d| {
-        let mut keep = vec![false; n];
-        keep[0] = true;
-        keep[n - 1] = true;
-        let mut stack = vec![(0, n - 1)];
         let mut at_reach = vec![0.0; d.get()];
-        while let Some((i0, i1)) = stack.pop() {
-            if i1 <= i0 + 1 {
-                continue;
-            }
+        split_until_within(points.len(), tolerance_rad, |i0, i1| {
             let frame = ArcFrame::new(d, points.get(i0), points.get(i1));
-            let split = if frame.antipodal {
-                Some((i0 + i1) / 2)
-            } else {
-                let (mut worst, mut at) = (-1.0, i0 + 1);
-                let mut reach: f64 = 0.0;
-                for j in i0 + 1..i1 {
-                    let q = points.get(j);
-                    let phi = if frame.degenerate() {
-                        0.0
-                    } else {
-                        dot(d, q, &frame.e2).atan2(dot(d, q, &frame.e1))
-                    };
-                    let e = if phi >= reach || frame.degenerate() {
-                        reach = reach.max(phi.min(frame.theta));
-                        frame.distance(d, q)
-                    } else {
-                        let (c, s) = (reach.cos(), reach.sin());
-                        for k in 0..d.get() {
-                            at_reach[k] = c * frame.e1[k] + s * frame.e2[k];
-                        }
-                        angle(d, q, &at_reach)
-                    };
-                    if e > worst {
-                        worst = e;
-                        at = j;
-                    }
-                }
-                (worst > tolerance_rad).then_some(at)
-            };
-            if let Some(j) = split {
-                keep[j] = true;
-                stack.push((j, i1));
-                stack.push((i0, j));
+            if frame.antipodal {
+                return None;
             }
-        }
-        (0..n).filter(|&i| keep[i]).collect()
+            let mut reach: f64 = 0.0;
+            Some(worst_of(i0, i1, |j| {
+                let q = points.get(j);
+                let phi = if frame.degenerate() {
+                    0.0
+                } else {
+                    dot(d, q, &frame.e2).atan2(dot(d, q, &frame.e1))
+                };
+                if phi >= reach || frame.degenerate() {
+                    reach = reach.max(phi.min(frame.theta));
+                    frame.distance(d, q)
+                } else {
+                    let (c, s) = (reach.cos(), reach.sin());
+                    for k in 0..d.get() {
+                        at_reach[k] = c * frame.e1[k] + s * frame.e2[k];
+                    }
+                    angle(d, q, &at_reach)
+                }
+            }))
+        })
     })
 }
 
@@ -284,47 +284,24 @@ pub fn synchronized_douglas_peucker(
 ) -> Vec<usize> {
     let n = points.len();
     assert_eq!(params.len(), n, "one parameter per point");
-    if n <= 2 {
-        return (0..n).collect();
-    }
-    let mut keep = vec![false; n];
-    keep[0] = true;
-    keep[n - 1] = true;
-    let mut stack = vec![(0, n - 1)];
-    while let Some((i0, i1)) = stack.pop() {
-        if i1 <= i0 + 1 {
-            continue;
-        }
+    split_until_within(n, tolerance_rad, |i0, i1| {
         let (a, b) = (points.get(i0), points.get(i1));
-        let span = params[i1] - params[i0];
-        let split = if angle_between(a, b) >= std::f64::consts::PI - ANTIPODAL_MARGIN_RAD {
-            Some((i0 + i1) / 2)
-        } else {
-            let (mut worst, mut at) = (-1.0, i0 + 1);
-            for j in i0 + 1..i1 {
-                let f = if span > 0.0 {
-                    (params[j] - params[i0]) / span
-                } else {
-                    0.0
-                };
-                let e = match crate::sphere::geometry::point::slerp(a, b, f) {
-                    Ok(c) => angle_between(points.get(j), &c),
-                    Err(_) => f64::INFINITY,
-                };
-                if e > worst {
-                    worst = e;
-                    at = j;
-                }
-            }
-            (worst > tolerance_rad).then_some(at)
-        };
-        if let Some(j) = split {
-            keep[j] = true;
-            stack.push((j, i1));
-            stack.push((i0, j));
+        if angle_between(a, b) >= std::f64::consts::PI - ANTIPODAL_MARGIN_RAD {
+            return None;
         }
-    }
-    (0..n).filter(|&i| keep[i]).collect()
+        let span = params[i1] - params[i0];
+        Some(worst_of(i0, i1, |j| {
+            let f = if span > 0.0 {
+                (params[j] - params[i0]) / span
+            } else {
+                0.0
+            };
+            match crate::sphere::geometry::point::slerp(a, b, f) {
+                Ok(c) => angle_between(points.get(j), &c),
+                Err(_) => f64::INFINITY,
+            }
+        }))
+    })
 }
 
 /// The largest distance (radians) of any point from the simplified line given by `kept`
