@@ -235,11 +235,17 @@ fn time_options(p: &Params, fit: bool) -> Result<(TimeOptions, Params), ApiError
         });
     }
     if let Some(v) = p.raw("at") {
+        // A string the schema allows but that holds no times: 422, like other unusable values.
         let at = crate::earth::time::parse_time_list(v).map_err(|m| {
-            ApiError::invalid_query(
-                "at",
-                format!("at={v:?}: {m} (give RFC 3339 times or unix seconds, comma-separated)"),
-            )
+            ApiError::from(crate::earth::EarthError::new(
+                "",
+                crate::earth::Problem::InvalidOption {
+                    option: "at",
+                    message: format!(
+                        "at={v:?}: {m} (give RFC 3339 times or unix seconds, comma-separated)"
+                    ),
+                },
+            ))
         })?;
         t.at_unix_s = Some(at);
     }
@@ -538,7 +544,7 @@ mod tests {
         let e = geo_job(pairs(&[("at", "1,,2")]), GeoEndpoint::Evaluate, &l).unwrap_err();
         assert_eq!(
             (e.status.as_u16(), e.parameter.as_deref()),
-            (400, Some("at"))
+            (422, Some("at"))
         );
         let e = geo_job(pairs(&[("spacing_s", "0")]), GeoEndpoint::Evaluate, &l).unwrap_err();
         assert_eq!(

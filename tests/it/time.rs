@@ -577,7 +577,7 @@ fn bad_time_arrays_are_422_with_a_pointer() {
     );
     // Unparsable and conflicting options.
     let (status, _, v) = post("/v1/evaluate?at=noon", &fitted);
-    assert_eq!((status, v["parameter"].as_str()), (400, Some("at")));
+    assert_eq!((status, v["parameter"].as_str()), (422, Some("at")));
     let (status, _, v) = post("/v1/fit?parameterization=chord&time_property=t", &track);
     assert_eq!(
         (status, v["parameter"].as_str()),
