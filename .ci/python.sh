@@ -34,6 +34,9 @@ rm -f target/wheels/spherefit-*.whl
 say "cargo build --release (the CLI the tests compare with)"
 cargo build --release --bin spherefit --quiet
 
+say "cargo test -p spherefit-python (the bindings' defaults are the library's)"
+cargo test -p spherefit-python --release --quiet
+
 say "stubtest and mypy (the stubs match the extension; the package type-checks)"
 (cd target && py-venv/bin/python -m mypy.stubtest spherefit._native \
   && py-venv/bin/python -m mypy --ignore-missing-imports --no-incremental -p spherefit)

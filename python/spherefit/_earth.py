@@ -151,8 +151,9 @@ def fit(
     tolerance_m: Optional[float] = None,
     control_points: Optional[int] = None,
     degree: int = 3,
-    knots: str = "geodesic",
-    solver: str = "gls-pia",
+    knots: str = "adaptive",
+    solver: str = "gauss-newton",
+    parameter_correction: bool = True,
     samples: Optional[int] = None,
     spacing_m: Optional[float] = None,
     iterations: int = 30,
@@ -180,9 +181,12 @@ def fit(
     Options are those of ``spherefit fit``: ``tolerance_m`` fits each curve to a tolerance in
     metres with as few stored numbers as the fitter finds (not with ``control_points``;
     ``degree`` caps the degrees tried, at most 3); otherwise ``control_points`` (default a
-    quarter of the distinct positions), ``degree`` (1 to 5), ``knots`` (``geodesic``,
-    ``euclidean``, ``uniform``), ``solver`` (``gls-pia``, ``gauss-newton``), ``iterations`` and
-    ``parameterization`` (``chord``, ``centripetal``, ``uniform``). Output density:
+    quarter of the distinct positions), ``degree`` (1 to 5), ``knots`` (``adaptive``,
+    ``geodesic``, ``euclidean``, ``uniform``), ``solver`` (``gauss-newton``, ``gls-pia``),
+    ``parameter_correction`` (foot-point parameters between solver steps), ``iterations`` and
+    ``parameterization`` (``chord``, ``centripetal``, ``uniform``); the defaults are the
+    service's (the paper's method: ``knots="geodesic", solver="gls-pia",
+    parameter_correction=False``). Output density:
     ``samples`` points per curve, or ``spacing_m`` metres apart (both: at most that far apart and
     at least that many), or automatic; ``precision`` decimals of output degrees.
 
@@ -202,6 +206,7 @@ def fit(
         iterations=iterations,
         parameterization=parameterization,
         solver=solver,
+        parameter_correction=parameter_correction,
         precision=precision,
         max_samples=max_samples,
         max_control_points=max_control_points,

@@ -30,7 +30,8 @@ use spherefit::sphere::{
 };
 
 // The literal defaults in the `#[pyo3(signature)]`s (literals, so that Python's signatures and
-// the stubs show them) are the library's.
+// the stubs show them) are the library's: for `fit_wkb` those of `POST /v1/fit` and
+// `spherefit fit` (`FitOptions::faithful`, checked in the tests below).
 const _: () = assert!(spherefit::sphere::fit::DEFAULT_ITERATIONS == 30);
 const _: () = assert!(spherefit::earth::DEFAULT_PRECISION == 7);
 
@@ -268,9 +269,9 @@ fn one_geometry(index: usize, wkb: &[u8], job: &Job, key: &str) -> Result<Outcom
 /// `spherefit.fit` for the options.
 #[pyfunction]
 #[pyo3(signature = (
-    wkbs, *, tolerance_m=None, control_points=None, degree=3, knots="geodesic",
+    wkbs, *, tolerance_m=None, control_points=None, degree=3, knots="adaptive",
     iterations=30, parameterization="chord",
-    solver="gls-pia", samples=None, spacing_m=None, precision=7,
+    solver="gauss-newton", parameter_correction=true, samples=None, spacing_m=None, precision=7,
     max_samples=100_000, max_control_points=10_000, max_iterations=1_000
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -284,6 +285,7 @@ fn fit_wkb(
     iterations: usize,
     parameterization: &str,
     solver: &str,
+    parameter_correction: bool,
     samples: Option<usize>,
     spacing_m: Option<f64>,
     precision: u32,
@@ -293,6 +295,7 @@ fn fit_wkb(
 ) -> PyResult<Columns> {
     let job = (|| {
         let options = FitOptions {
+            parameter_correction,
             control_points,
             degree,
             knots: parse::<KnotPlacement>("knots", knots)?,
@@ -655,6 +658,16 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
 #[cfg(test)]
 mod tests {
     use spherefit::earth::Limits;
+
+    #[test]
+    fn fit_defaults_are_the_services() {
+        use spherefit::sphere::{FitOptions, KnotPlacement, Solver};
+        let f = FitOptions::faithful();
+        assert_eq!(
+            (f.knots, f.solver, f.parameter_correction),
+            (KnotPlacement::Adaptive, Solver::GaussNewton, true)
+        );
+    }
 
     #[test]
     fn signature_limits_are_the_library_defaults() {
