@@ -875,6 +875,8 @@ pub fn fit_line_to_tolerance(
     let mut topts = ToleranceOptions {
         parameterization: options.parameterization,
         max_control_points: Some(distinct.len()),
+        // The curve is measured below, as returned (rounded, closed).
+        measure_result: false,
         ..ToleranceOptions::default()
     };
     topts.degrees.retain(|&p| p <= options.degree.max(1));

@@ -1029,6 +1029,7 @@ fn fit_arc(
         parameterization,
         max_control_points: Some(points.len()),
         pin_ends: true,
+        measure_result: false,
         ..ToleranceOptions::default()
     };
     topts.degrees.retain(|&p| p <= degree_cap);

@@ -175,6 +175,12 @@ pub struct ToleranceOptions {
     /// smooth curve needs more control points than the polyline has vertices, and proving so
     /// cost half the fitting time of a coastline.
     pub degree_probe: bool,
+    /// Measure the returned curve's two-way distance to [`TWO_WAY_PRECISION`] of the tolerance
+    /// for [`ToleranceFit::two_way_rad`]. Off, that field is the bound the fitter decided by
+    /// (proven, at most the tolerance, but looser) and the length ratio is the decision's
+    /// (a curve that misses is still measured): for callers that measure the curve themselves after rounding it (the
+    /// Earth layer), which saved a tenth of a coastline's fitting time.
+    pub measure_result: bool,
     /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
     pub cancel: crate::sphere::cancel::Cancel,
 }
@@ -193,6 +199,7 @@ impl Default for ToleranceOptions {
             max_control_points: None,
             pin_ends: false,
             degree_probe: true,
+            measure_result: true,
             cancel: crate::sphere::cancel::Cancel::inherit(),
         }
     }
@@ -393,9 +400,10 @@ pub fn fit_to_tolerance(
     let mut closest: Option<(Curve, ErrorMetrics)> = None;
     // Douglas–Peucker's polyline is the yardstick: a curve storing more numbers than it is
     // never worth proving.
-    let fallbacks = polyline_candidates(points, &base_params, free, tolerance_rad);
-    let yardstick = fallbacks
-        .first()
+    // The other fallbacks are only built when they are needed.
+    let mut first_fallback = polyline_candidate(points, &base_params, free, tolerance_rad, 0);
+    let yardstick = first_fallback
+        .as_ref()
         .map(|c| stored_numbers(&c.spline, c.rule))
         .unwrap_or(usize::MAX);
     'shares: for &share in VERTEX_SHARES.iter() {
@@ -453,8 +461,11 @@ pub fn fit_to_tolerance(
     }
     if chosen.is_none() {
         // Towards the polyline: Douglas–Peucker's vertices, then every point.
-        for c in fallbacks
-            .into_iter()
+        for c in (0..POLYLINE_CANDIDATES)
+            .filter_map(|k| match k {
+                0 => first_fallback.take(),
+                _ => polyline_candidate(points, &base_params, free, tolerance_rad, k),
+            })
             .filter(|c| c.spline.control_points().len() <= cap)
         {
             let m = measure(&c.spline, points, &c.params);
@@ -475,7 +486,7 @@ pub fn fit_to_tolerance(
     }
     let met = chosen.is_some();
     let (curve, metrics, decided) = match chosen.or(best_miss) {
-        Some((c, m, tw)) => (c, m, Some(tw.upper_rad)),
+        Some((c, m, tw)) => (c, m, Some(tw)),
         None => {
             let (c, m) = closest.ok_or(SphereError::NoValidFit)?;
             (c, m, None)
@@ -483,10 +494,16 @@ pub fn fit_to_tolerance(
     };
     // The decision said yes or no; the report gives the distance itself. Both are proven
     // upper bounds, so the smaller one is.
-    let mut tw = two_way_distance(&curve.spline, points, &curve.params, &measure_options)?;
-    if let Some(d) = decided {
-        tw.upper_rad = tw.upper_rad.min(d);
-    }
+    let tw = match (options.measure_result, decided) {
+        (false, Some(tw)) if !tw.exceeded => tw,
+        (_, decided) => {
+            let mut tw = two_way_distance(&curve.spline, points, &curve.params, &measure_options)?;
+            if let Some(d) = decided.filter(|d| !d.exceeded) {
+                tw.upper_rad = tw.upper_rad.min(d.upper_rad);
+            }
+            tw
+        }
+    };
     let stored = stored_numbers(&curve.spline, curve.rule);
     let input_numbers = polyline_numbers(n, points.dim());
     Ok(ToleranceFit {
@@ -695,20 +712,22 @@ fn smooth_bends(ctrl: &PointSet) -> bool {
 /// among the others.
 type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
 
-/// The polyline fallbacks, degree 1 on uniform knots (none stored): the Douglas–Peucker
+/// How many polyline fallbacks [`polyline_candidate`] knows.
+const POLYLINE_CANDIDATES: usize = 4;
+
+/// The `k`-th polyline fallback, degree 1 on uniform knots (none stored): the Douglas–Peucker
 /// vertices at the tolerance and a hair under it, then every point. Each point's parameter is
 /// where it projects on its segment (kept non-decreasing). With given parameters the vertices
 /// are the time-aware Douglas–Peucker's (TD-TR, the error at a point's own parameter) and the
 /// knots are the kept points' parameters (stored); the polyline through every point then has
 /// error 0 at every parameter, so strictly increasing parameters always meet the tolerance.
-fn polyline_candidates(
+fn polyline_candidate(
     points: &PointSet,
     base_params: &[f64],
     free: bool,
     tolerance_rad: f64,
-) -> Vec<Curve> {
-    let n = points.len();
-    let mut out = Vec::new();
+    k: usize,
+) -> Option<Curve> {
     // Douglas–Peucker bounds the vertices' distance to the kept chords; the ordered two-way
     // distance can be a little more, hence the second try a hair under the tolerance.
     // With given parameters (times) the vertex error is the synchronized distance, so the
@@ -716,27 +735,18 @@ fn polyline_candidates(
     // point (error 0 at every parameter) is the last resort. With free parameters, after plain
     // Douglas–Peucker come the chords that keep the points in order (fjords and spikes that
     // plain Douglas–Peucker cuts across), before every point.
-    let all: Vec<usize> = (0..n).collect();
-    let tries = if free {
-        vec![
-            douglas_peucker(points, tolerance_rad),
-            douglas_peucker(points, 0.95 * tolerance_rad),
-            douglas_peucker_ordered(points, 0.95 * tolerance_rad),
-            all,
-        ]
-    } else {
-        vec![
-            synchronized_douglas_peucker(points, base_params, tolerance_rad),
-            synchronized_douglas_peucker(points, base_params, 0.95 * tolerance_rad),
-            all,
-        ]
+    let every = || (0..points.len()).collect::<Vec<usize>>();
+    let kept = match (free, k) {
+        (true, 0) => douglas_peucker(points, tolerance_rad),
+        (true, 1) => douglas_peucker(points, 0.95 * tolerance_rad),
+        (true, 2) => douglas_peucker_ordered(points, 0.95 * tolerance_rad),
+        (true, 3) => every(),
+        (false, 0) => synchronized_douglas_peucker(points, base_params, tolerance_rad),
+        (false, 1) => synchronized_douglas_peucker(points, base_params, 0.95 * tolerance_rad),
+        (false, 2) => every(),
+        _ => return None,
     };
-    for kept in tries {
-        if let Some(c) = polyline_through(points, base_params, free, &kept) {
-            out.push(c);
-        }
-    }
-    out
+    polyline_through(points, base_params, free, &kept)
 }
 
 fn polyline_through(
@@ -925,7 +935,7 @@ fn uniform_search<D: Dim, G: Degree>(
             f.pin_ends();
         }
         f.correct_all(4);
-        f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0);
+        f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0, true);
         Some(f)
     };
     let hi_limit = most;
@@ -1318,11 +1328,17 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     /// fixed), alternating with foot-point correction; stops once the window's max error is at
     /// or below `target`, or when it stops improving. Returns the window's max error.
     fn refit(&mut self, c0: usize, c1: usize, iterations: usize, target: f64) -> f64 {
-        self.refit_or_give_up(c0, c1, iterations, target, f64::INFINITY)
+        self.refit_or_give_up(c0, c1, iterations, target, f64::INFINITY, false)
     }
 
     /// [`refit`](Self::refit) that stops after [`GIVE_UP_AFTER`] iterations when the max error
     /// is still above `give_up × target`: used where a miss is cheap (bisection, removals).
+    /// With `stall`, it also stops once even the last pass's gain, kept up for every pass
+    /// left, would not reach the target (the passes slow down, they do not speed up): the
+    /// long whole-curve fits of the uniform-knot search, where a doomed fit otherwise runs
+    /// all its passes. (Not in removals: there the short refits decide which knots go, and
+    /// stopping them early changed the greedy order for the worse on the 10m border.)
+    #[allow(clippy::too_many_arguments)]
     fn refit_or_give_up(
         &mut self,
         c0: usize,
@@ -1330,6 +1346,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         iterations: usize,
         target: f64,
         give_up: f64,
+        stall: bool,
     ) -> f64 {
         // A closed line keeps its seam, and pinned ends (junctions of a coverage) stay: the
         // end control points stay on the first and last points, so a ring is closed as
@@ -1353,13 +1370,19 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let (mut max, mut loss) = self.measure_range(j0, j1);
         let mut lambda = 0.0;
         let mut saved = vec![0.0; nf * dim];
+        let mut before = f64::INFINITY;
         for it in 0..iterations {
+            let stalled = stall
+                && it >= GIVE_UP_AFTER
+                && max - target > (iterations - it) as f64 * (before - max);
             if max <= target
                 || (it >= GIVE_UP_AFTER && max > give_up * target)
+                || stalled
                 || crate::sphere::cancel::cancelled()
             {
                 break;
             }
+            before = max;
             let mut band = SymmetricBand::zeros(nf, p);
             let mut rhs = vec![0.0; nf * dim];
             for j in j0..j1 {
@@ -1624,7 +1647,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let (j0, j1) = self.window_points(c0, c1);
         let params_before = self.params[j0..j1].to_vec();
         let err_before = self.err[j0..j1].to_vec();
-        let mut max = self.refit_or_give_up(c0, c1, REFIT_ITERATIONS, target, 4.0);
+        let mut max = self.refit_or_give_up(c0, c1, REFIT_ITERATIONS, target, 4.0, false);
         if self.reweight {
             let mut round = 0;
             while max > target && max <= REWEIGHT_WITHIN * target && round < REWEIGHT_ROUNDS {
