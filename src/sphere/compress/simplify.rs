@@ -12,7 +12,7 @@
 //! O(n log n) on typical lines, O(n²) in the worst case, like the planar algorithm.
 
 use crate::sphere::geometry::point::{
-    angle, angle_between, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
+    angle, angle_between, angle_from_sine, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
 };
 
 /// Arcs shorter than this are treated as a point: the plane they span is undefined to rounding
@@ -27,6 +27,9 @@ pub(crate) struct ArcFrame {
     pub(crate) e2: Vec<f64>,
     b: Vec<f64>,
     pub(crate) theta: f64,
+    /// cos and sin of `theta`: whether a point projects inside the arc, without an atan2.
+    cos_theta: f64,
+    sin_theta: f64,
     /// The end points are (nearly) antipodal: the minor arc is undefined.
     antipodal: bool,
 }
@@ -60,6 +63,8 @@ impl ArcFrame {
             e2,
             b: b[..dim].to_vec(),
             theta,
+            cos_theta: theta.cos(),
+            sin_theta: theta.sin(),
             antipodal: theta > std::f64::consts::PI - ANTIPODAL_MARGIN_RAD,
         }
     }
@@ -73,17 +78,22 @@ impl ArcFrame {
         let (e1, e2) = (&self.e1[..d.get()], &self.e2[..d.get()]);
         let x = dot(d, q, e1);
         let y = dot(d, q, e2);
-        // Position of the point's projection along the great circle, measured from a.
-        let phi = y.atan2(x);
-        if (0.0..=self.theta).contains(&phi) {
+        // The point's projection on the great circle lies within the arc when its angle from
+        // a, atan2(y, x), is in [0, theta]: y >= 0 and sin(phi − theta) <= 0.
+        if y >= 0.0 && y * self.cos_theta <= x * self.sin_theta {
             // |q − proj| computed directly (not as sqrt(1 − |proj|²), which loses half the
-            // digits for points near the circle).
+            // digits for points near the circle): the sine of the cross-track angle.
             let mut perp_sq = 0.0;
             for k in 0..d.get() {
                 let r = q[k] - x * e1[k] - y * e2[k];
                 perp_sq += r * r;
             }
-            perp_sq.sqrt().atan2(x.hypot(y))
+            let perp = perp_sq.sqrt();
+            if perp <= 0.1 {
+                angle_from_sine(perp)
+            } else {
+                perp.atan2(x.hypot(y))
+            }
         } else {
             end_a().min(angle(d, q, &self.b))
         }
@@ -188,13 +198,15 @@ fn split_until_within(
     (0..n).filter(|&i| keep[i]).collect()
 }
 
-/// The largest `error(j)` over the interior points of (i0, i1), and where (the first of
-/// equals).
+/// The largest `error(j)` over the interior points of (i0, i1), and where: of equals, the one
+/// nearest the middle, so that a line of equal errors (a regular zigzag) splits in halves and
+/// costs n log n, not n².
 fn worst_of(i0: usize, i1: usize, mut error: impl FnMut(usize) -> f64) -> (f64, usize) {
     let (mut worst, mut at) = (-1.0, i0 + 1);
+    let mid = i0 + (i1 - i0) / 2;
     for j in i0 + 1..i1 {
         let e = error(j);
-        if e > worst {
+        if e > worst || (e == worst && j.abs_diff(mid) < at.abs_diff(mid)) {
             worst = e;
             at = j;
         }

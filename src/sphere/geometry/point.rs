@@ -86,6 +86,24 @@ pub(crate) fn asinc_series(z: f64) -> f64 {
                                 + y * (143.0 / 10_240.0 + y * (6435.0 / 557_056.0))))))))
 }
 
+/// The angle in [0, pi/2] whose sine is `s` (0 <= s <= 1), by the series where they are
+/// exact to rounding (angles up to [`SERIES_ANGLE_MAX_RAD`] / 2) and by `asin` beyond: a
+/// cross-track distance from its sine without libm's atan2.
+#[inline(always)]
+pub(crate) fn angle_from_sine(s: f64) -> f64 {
+    // sin(SHORT_SERIES_ANGLE_MAX_RAD / 2) and sin(SERIES_ANGLE_MAX_RAD / 2), the ranges of the
+    // two asin(z)/z series.
+    const SHORT_MAX: f64 = 0.009_999_833_334_166_664;
+    const MAX: f64 = 0.124_674_733_385_227_69;
+    if s <= SHORT_MAX {
+        s * asinc_series_short(s)
+    } else if s <= MAX {
+        s * asinc_series(s)
+    } else {
+        s.min(1.0).asin()
+    }
+}
+
 /// The geodesic angle between two unit vectors from their squared chord `|a - b|^2` and squared
 /// sum `|a + b|^2`, and the factor `angle / |a - b|` (1 when they coincide).
 #[inline(always)]
