@@ -23,7 +23,7 @@ use crate::sphere::tolerance::{
 };
 use crate::sphere::two_way::{polyline_length, two_way_distance, TwoWayOptions};
 use crate::sphere::AnyCurve;
-use crate::sphere::{fit, FitOptions, PointSet, SphereError, SphericalBSpline};
+use crate::sphere::{fit, FitOptions, InputSite, PointSet, SphereError, SphericalBSpline};
 use serde_json::{json, Map, Value};
 
 /// Consecutive positions closer than this (radians; 0.6 mm on the Earth) are repeats: far below
@@ -1117,36 +1117,34 @@ fn median_step_rad(d: &DistinctPositions) -> f64 {
     *steps.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
-/// Maps a math-core error on distinct positions to a GeoJSON error at the input position.
+/// Maps a math-core error on distinct positions to a GeoJSON error: at the input position
+/// when it names a point ([`SphereError::site`]), else at the line (`pointer`).
 pub(crate) fn sphere_error(e: SphereError, pointer: &str, input_index: &[usize]) -> EarthError {
-    let at = |i: usize| format!("{pointer}/{}", input_index.get(i).copied().unwrap_or(i));
-    match e {
-        SphereError::Antipodal { index, angle_rad } => EarthError::new(
-            at(index),
-            Problem::Antipodal {
-                angle_deg: angle_rad.to_degrees(),
-            },
+    let at = match e.site() {
+        InputSite::Point { index, .. } => format!(
+            "{pointer}/{}",
+            input_index.get(index).copied().unwrap_or(index)
         ),
-        SphereError::RepeatedPoint { index, .. } => EarthError::new(at(index), Problem::Fit(e)),
-        SphereError::TooFewPoints { got, need } => EarthError::new(
-            pointer,
-            Problem::TooFewPoints {
-                distinct: got,
-                need,
-            },
-        ),
-        SphereError::AllPointsEqual { count } => EarthError::new(
-            pointer,
-            Problem::TooFewPoints {
-                distinct: count.min(1),
-                need: 2,
-            },
-        ),
-        SphereError::NotInterpolated { joint, .. } | SphereError::DegenerateArc { joint, .. } => {
-            EarthError::new(at(joint), Problem::Interpolation(e))
+        _ => pointer.to_string(),
+    };
+    let problem = match e {
+        SphereError::Antipodal { angle_rad, .. } => Problem::Antipodal {
+            angle_deg: angle_rad.to_degrees(),
+        },
+        SphereError::TooFewPoints { got, need } => Problem::TooFewPoints {
+            distinct: got,
+            need,
+        },
+        SphereError::AllPointsEqual { count } => Problem::TooFewPoints {
+            distinct: count.min(1),
+            need: 2,
+        },
+        SphereError::NotInterpolated { .. } | SphereError::DegenerateArc { .. } => {
+            Problem::Interpolation(e)
         }
-        other => EarthError::new(pointer, Problem::Fit(other)),
-    }
+        other => Problem::Fit(other),
+    };
+    EarthError::new(at, problem)
 }
 
 /// Interpolates every distinct position of one line (or ring) with a spherical Beta-spline.

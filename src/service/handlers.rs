@@ -9,14 +9,12 @@ use super::error::ApiError;
 use super::query::{self, fit_options, GeoEndpoint, Params};
 use super::{AppState, ServiceConfig, OPENAPI_YAML};
 use crate::document::{curve_from_json, InterpolationDocument};
+use crate::document::{pointer, tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::earth::{Document, FeatureStats, Job};
 use crate::sphere::cancel::Cancel;
-use crate::sphere::document::{
-    pointer_for, tolerance_document, FitDocument, PointsInput, SamplesDocument,
-};
 use crate::sphere::interpolate;
 use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
-use crate::sphere::{InterpolationOptions, SphereError, SphericalCurve};
+use crate::sphere::{InputSite, InterpolationOptions, SphereError, SphericalCurve};
 use axum::body::Body;
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Query, State};
@@ -366,47 +364,31 @@ fn output_too_large(what: String, limit: usize) -> ApiError {
     .at("")
 }
 
-/// Where a points document keeps its points: `/points` in an object, the root in an array.
-fn points_base(v: &Value) -> &'static str {
-    if v.is_object() {
-        "/points"
-    } else {
-        ""
-    }
-}
-
+/// A math-core error on the points at `base` as a 422: the problem type by kind, the place
+/// from [`SphereError::site`] (an option as the query parameter, else a JSON pointer).
 fn sphere_error(e: SphereError, base: &str) -> ApiError {
-    let detail = e.to_string();
-    match e {
-        SphereError::InvalidDegree { .. } => {
-            ApiError::unprocessable("invalid-option", detail).param("degree")
+    let kind = match e {
+        SphereError::InvalidDegree { .. }
+        | SphereError::InvalidControlPointCount { .. }
+        | SphereError::InvalidShapeParameter { .. }
+        | SphereError::ShapeParameterCount { .. } => "invalid-option",
+        SphereError::InvalidParameters { .. } | SphereError::RepeatedPoint { .. } => {
+            "invalid-points"
         }
-        SphereError::InvalidControlPointCount { .. } => {
-            ApiError::unprocessable("invalid-option", detail).param("control_points")
+        SphereError::TooFewPoints { .. } | SphereError::AllPointsEqual { .. } => "too-few-points",
+        SphereError::Antipodal { .. } => "antipodal-points",
+        SphereError::NotInterpolated { .. } | SphereError::DegenerateArc { .. } => {
+            "not-interpolable"
         }
-        SphereError::InvalidParameters { .. } => {
-            ApiError::unprocessable("invalid-points", detail).at("/parameters")
-        }
-        SphereError::InvalidShapeParameter { field, .. } => {
-            ApiError::unprocessable("invalid-option", detail).param(field)
-        }
-        SphereError::TooFewPoints { .. } | SphereError::AllPointsEqual { .. } => {
-            ApiError::unprocessable("too-few-points", detail).at(base)
-        }
-        SphereError::Antipodal { .. } => {
-            ApiError::unprocessable("antipodal-points", detail).at(pointer_for(base, &e))
-        }
-        SphereError::RepeatedPoint { index, .. } => {
-            ApiError::unprocessable("invalid-points", detail).at(format!("{base}/{index}"))
-        }
-        SphereError::NotInterpolated { joint, .. } | SphereError::DegenerateArc { joint, .. } => {
-            ApiError::unprocessable("not-interpolable", detail).at(format!("{base}/{joint}"))
-        }
-        SphereError::Cancelled => ApiError::unprocessable("cancelled", detail),
-        SphereError::NonFinite { .. } => {
-            ApiError::unprocessable("non-finite", detail).at(pointer_for(base, &e))
-        }
-        _ => ApiError::unprocessable("unfittable", detail).at(pointer_for(base, &e)),
+        SphereError::Cancelled => "cancelled",
+        SphereError::NonFinite { .. } => "non-finite",
+        _ => "unfittable",
+    };
+    let error = ApiError::unprocessable(kind, e.to_string());
+    match e.site() {
+        InputSite::Field { name, .. } => error.param(name),
+        InputSite::Nothing => error,
+        site => error.at(pointer(site, "", base)),
     }
 }
 
@@ -494,8 +476,8 @@ pub(super) async fn sphere_fit(
         held,
         move |bytes, cancel| {
             let v = parse_json(bytes)?;
-            let base = points_base(&v);
             let input = PointsInput::from_json(&v)?;
+            let base = input.points_pointer;
             check_point_count(input.points.len(), base, &config)?;
             if let Some(tolerance_rad) = tolerance_rad {
                 // As `sphere fit --tolerance-rad`: degree caps the degrees tried.
@@ -574,8 +556,8 @@ pub(super) async fn sphere_interpolate(
             let mut options = options;
             options.cancel = cancel.clone();
             let v = parse_json(bytes)?;
-            let base = points_base(&v);
             let input = PointsInput::from_json(&v)?;
+            let base = input.points_pointer;
             if v.get("parameters").is_some() {
                 return Err(ApiError::unprocessable(
                     "invalid-points",
