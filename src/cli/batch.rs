@@ -21,8 +21,7 @@ mod topology;
 
 use super::Failure;
 use crate::earth::{
-    InterpolateSettings, Job, Limits, Operation, OutputOptions, Problem, Sampling, TimeOptions,
-    TimeSource,
+    InterpolateSettings, Job, Limits, Operation, OutputOptions, Sampling, TimeOptions, TimeSource,
 };
 use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
 use clap::Args;
@@ -452,14 +451,7 @@ fn job(
         cancel: Default::default(),
         time,
     };
-    job.validate().map_err(|e| match e.problem {
-        Problem::InvalidOption { option, message } => Failure::input(format!(
-            "--{}: {}",
-            option.replace('_', "-"),
-            message.replace("the server's limit", "the limit")
-        )),
-        other => Failure::input(other),
-    })?;
+    job.validate().map_err(Failure::option)?;
     Ok(job)
 }
 

@@ -126,6 +126,10 @@ pub(crate) fn run(cmd: SphereCommand) -> Result<(), Failure> {
 }
 
 fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
+    crate::earth::check_target_max_error_rad(a.target_max_error_rad).map_err(Failure::option)?;
+    if let Some(tolerance_rad) = a.tolerance_rad {
+        crate::earth::check_tolerance("tolerance_rad", tolerance_rad).map_err(Failure::option)?;
+    }
     let input = PointsInput::from_json(&read_json(a.file.as_ref())?).map_err(Failure::input)?;
     let mut options = FitOptions::default()
         .with_degree(a.degree)
@@ -135,13 +139,6 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
         .with_step(a.step)
         .with_solver(a.solver);
     options.control_points = a.control_points;
-    if let Some(t) = a.target_max_error_rad {
-        if !(t.is_finite() && t >= 0.0) {
-            return Err(Failure::input(format!(
-                "--target-max-error-rad {t}: the target must be a number of radians >= 0"
-            )));
-        }
-    }
     options.target_max_error_rad = a.target_max_error_rad;
     if let Some(tolerance_rad) = a.tolerance_rad {
         return tolerance_cmd(&input, tolerance_rad, a.degree, a.parameterization);
@@ -199,7 +196,7 @@ fn interpolate_cmd(a: InterpolateArgs) -> Result<(), Failure> {
 fn sphere_failure(e: &SphereError, points: &str) -> Failure {
     let place = match e.site() {
         InputSite::Field { name, index } => {
-            let flag = format!("--{}", name.replace('_', "-"));
+            let flag = super::flag(name);
             match index {
                 Some(i) => format!("{flag}, value {i}"),
                 None => flag,

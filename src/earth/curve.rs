@@ -1285,7 +1285,7 @@ pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, Eart
         if crs.as_str() != Some("lonlat") {
             return Err(invalid(
                 format!("{pointer}/crs"),
-                "only \"lonlat\" is supported here (S^n documents go to /v1/sphere/evaluate)"
+                "only \"lonlat\" is supported here (a document of unit vectors is an S^n document: evaluate it on S^n)"
                     .into(),
             ));
         }

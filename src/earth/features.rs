@@ -120,7 +120,7 @@ impl Document {
             if map.get("crs").and_then(Value::as_str) != Some("lonlat") {
                 return Err(invalid(
                     "/crs",
-                    "a bare spline document needs \"crs\": \"lonlat\" (documents of unit vectors go to /v1/sphere/evaluate)",
+                    "a bare spline document needs \"crs\": \"lonlat\" (a document of unit vectors is an S^n document: evaluate it on S^n)",
                 ));
             }
             return Ok(Document {
@@ -787,7 +787,7 @@ fn curves_of_fit<'a>(
         return Err(invalid(
             iptr,
             format!(
-                "expected \"{doc_key}\" or \"parts\" (as written by /v1/fit or /v1/interpolate)"
+                "expected \"{doc_key}\" or \"parts\" (as a fit or an interpolation writes them)"
             ),
         ));
     };

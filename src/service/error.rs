@@ -246,8 +246,12 @@ impl From<EarthError> for ApiError {
         let slug = e.problem.slug();
         let detail = e.problem.to_string();
         match e.problem {
-            Problem::InvalidOption { option, .. } => {
+            Problem::InvalidOption { option, .. } | Problem::RequiresOption { option, .. } => {
                 ApiError::unprocessable(slug, detail).param(option)
+            }
+            Problem::CountOutOfRange { option, .. } => {
+                ApiError::unprocessable(slug, format!("{detail} (the server's limit)"))
+                    .param(option)
             }
             // Only spacing_m can ask for more points than the limit once the options passed
             // validation; the pointer says which line.

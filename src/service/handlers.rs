@@ -414,47 +414,7 @@ fn sphere_fit_options(
     let mut options = fit_options(&p, crate::sphere::FitOptions::default())?;
     options.target_max_error_rad = p.num("target_max_error_rad")?;
     let tolerance_rad = query::tolerance(&p, "tolerance_rad")?;
-    let limits = &state.config.limits;
-    let max_degree = crate::sphere::bspline::MAX_DEGREE;
-    if options.degree == 0 || options.degree > max_degree {
-        return Err(ApiError::unprocessable(
-            "invalid-option",
-            format!("degree {}: use 1 to {max_degree}", options.degree),
-        )
-        .param("degree"));
-    }
-    if let Some(n) = options.control_points {
-        if n < options.degree + 1 || n > limits.max_control_points {
-            return Err(ApiError::unprocessable(
-                "invalid-option",
-                format!(
-                    "{n} control points: use degree + 1 = {} to {} (the server's limit)",
-                    options.degree + 1,
-                    limits.max_control_points
-                ),
-            )
-            .param("control_points"));
-        }
-    }
-    if options.iterations > limits.max_iterations {
-        return Err(ApiError::unprocessable(
-            "invalid-option",
-            format!(
-                "{} iterations: use 0 to {} (the server's limit)",
-                options.iterations, limits.max_iterations
-            ),
-        )
-        .param("iterations"));
-    }
-    if let Some(t) = options.target_max_error_rad {
-        if !(t.is_finite() && t >= 0.0) {
-            return Err(ApiError::unprocessable(
-                "invalid-option",
-                format!("{t}: the target must be a number of radians >= 0"),
-            )
-            .param("target_max_error_rad"));
-        }
-    }
+    crate::earth::check_fit_options(&options, &state.config.limits)?;
     Ok((options, tolerance_rad))
 }
 

@@ -309,18 +309,7 @@ pub fn tolerance(p: &Params, name: &'static str) -> Result<Option<f64>, ApiError
         )
         .param(name));
     }
-    if !(t.is_finite() && t > 0.0) {
-        let unit = if name == "tolerance_m" {
-            "metres"
-        } else {
-            "radians"
-        };
-        return Err(ApiError::unprocessable(
-            "invalid-option",
-            format!("{t}: the tolerance must be a positive number of {unit}"),
-        )
-        .param(name));
-    }
+    crate::earth::check_tolerance(name, t)?;
     Ok(Some(t))
 }
 

@@ -105,7 +105,7 @@ impl FromStr for OutputFormat {
 /// TopoJSON output needs shared topology.
 ///
 /// # Errors
-/// [`Problem::InvalidOption`] naming `topology` or `format`.
+/// [`Problem::RequiresOption`] or [`Problem::InvalidOption`] naming `topology` or `format`.
 pub fn validate(job: &Job, topology: Topology, format: OutputFormat) -> Result<(), EarthError> {
     let bad = |option: &'static str, message: &str| {
         Err(EarthError::new(
@@ -117,10 +117,14 @@ pub fn validate(job: &Job, topology: Topology, format: OutputFormat) -> Result<(
         ))
     };
     if topology == Topology::Shared && !matches!(job.operation, Operation::FitToTolerance { .. }) {
-        return bad(
-            "topology",
-            "shared topology fits every border to a tolerance: give tolerance_m too",
-        );
+        return Err(EarthError::new(
+            "",
+            Problem::RequiresOption {
+                option: "topology",
+                requires: "tolerance_m",
+                reason: "shared topology fits every border to a tolerance",
+            },
+        ));
     }
     if topology == Topology::Shared && job.time.fit_in_time.is_some() {
         return bad(
@@ -1298,8 +1302,9 @@ mod tests {
         let e = validate(&fit, Topology::Shared, OutputFormat::GeoJson).unwrap_err();
         assert!(matches!(
             e.problem,
-            Problem::InvalidOption {
+            Problem::RequiresOption {
                 option: "topology",
+                requires: "tolerance_m",
                 ..
             }
         ));
