@@ -1,4 +1,4 @@
-//! Issue 15 item 6, the compression bench's baselines on the fixture lines (the three US–Mexico
+//! The compression bench's baselines on the fixture lines (the three US–Mexico
 //! borders and the GPS tracks) at T in 1, 5, 25, 100 and 500 m: the optimal subset polyline
 //! meets T at every input point (recomputed here with a cross-track distance written apart
 //! from the library's), keeps the ends, never has more vertices than Douglas–Peucker, and

@@ -1,4 +1,4 @@
-//! Issue 15, the default fit: faithful on the 10m US–Mexico border, never worse than uniform
+//! The default fit: faithful on the 10m US–Mexico border, never worse than uniform
 //! knots with Gauss–Newton at the same count, and closed LineStrings come back as closed curves
 //! that are smooth across their seam.
 

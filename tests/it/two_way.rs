@@ -1,4 +1,4 @@
-//! Issue 15: fits that stay on the line. For T in 1, 5, 25, 100 and 500 m, on the fixture lines
+//! Fits that stay on the line. For T in 1, 5, 25, 100 and 500 m, on the fixture lines
 //! (the three US–Mexico borders, the GPS tracks) and on synthetic ones (a closed ring, a noisy
 //! 1 Hz track with jumps, a border-like line of corners and long straight stretches): whenever
 //! `tolerance_met` is true, a two-way distance recomputed here by brute force (dense samples of
