@@ -859,17 +859,9 @@ pub fn fit_line_to_tolerance(
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
     let tol_rad = m_to_rad(tolerance_m);
     let bound = rounding_bound_rad(output.precision);
-    let mut target = if tol_rad > 3.0 * bound {
-        tol_rad - 1.5 * bound
-    } else {
-        tol_rad
-    };
-    // The dense output adds its deviation to the curve's distance from the line: aim below the
-    // tolerance by that much too, so the returned geometry also stays within it.
+    // The dense output adds its deviation to the curve's distance from the line.
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
-    if target - dense_margin > 0.5 * tol_rad {
-        target -= dense_margin;
-    }
+    let mut target = tolerance_target_rad(tol_rad, output.precision);
     // No control-point cap below the input's own size here: a long line at a small tolerance
     // may need nearly a control point per position, and the input limits already bound that.
     let mut topts = ToleranceOptions {
@@ -1145,6 +1137,24 @@ pub(crate) fn sphere_error(e: SphereError, pointer: &str, input_index: &[usize])
         other => Problem::Fit(other),
     };
     EarthError::new(at, problem)
+}
+
+/// What a tolerance fit aims at so that the curve as returned meets `tol_rad`: below it by
+/// the rounding of the control points to `precision` decimals (when that leaves room), and by
+/// the deviation the dense output adds to the curve's distance from the line (when at least
+/// half the tolerance is left).
+pub(crate) fn tolerance_target_rad(tol_rad: f64, precision: u32) -> f64 {
+    let bound = rounding_bound_rad(precision);
+    let mut target = if tol_rad > 3.0 * bound {
+        tol_rad - 1.5 * bound
+    } else {
+        tol_rad
+    };
+    let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
+    if target - dense_margin > 0.5 * tol_rad {
+        target -= dense_margin;
+    }
+    target
 }
 
 /// Interpolates every distinct position of one line (or ring) with a spherical Beta-spline.

@@ -40,7 +40,7 @@ pub const TIGHTEN_ROUNDS: usize = 3;
 
 use super::curve::{
     compression_ratio, prepare_line, round_spline, round_up_m, rounding_bound_rad, sampling_start,
-    sphere_error,
+    sphere_error, tolerance_target_rad,
 };
 use super::features::{process_feature, Document, FeatureStats, Source};
 use super::lonlat::{m_to_rad, rad_to_m, round_to, unit_to_lonlat};
@@ -1020,15 +1020,8 @@ fn fit_arc(
     let points = PointSet::try_from_rows(&rows).map_err(|e| sphere_error(e, "", &[]))?;
     let output = &job.output;
     let bound = rounding_bound_rad(output.precision);
-    let mut target = if tol_rad > 3.0 * bound {
-        tol_rad - 1.5 * bound
-    } else {
-        tol_rad
-    };
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
-    if target - dense_margin > 0.5 * tol_rad {
-        target -= dense_margin;
-    }
+    let mut target = tolerance_target_rad(tol_rad, output.precision);
     let mut topts = ToleranceOptions {
         parameterization,
         max_control_points: Some(points.len()),
