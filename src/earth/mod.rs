@@ -7,6 +7,9 @@
 //! * [`antimeridian`]: lon/lat output cut at ±180 degrees (RFC 7946 §3.1.9), poles.
 //! * [`sampling`]: dense output of a curve (`samples`, `spacing_m`, or automatic).
 //! * [`curve`]: one line or ring: positions parsed and checked, repeats dropped, fitted.
+//! * [`check_fit_options`], [`check_tolerance`], [`Job::validate`]: the option checks that
+//!   the service and the command line share; errors carry the data ([`Problem::CountOutOfRange`]
+//!   names the limit) and each front end words them.
 //! * [`features`]: GeoJSON documents walked feature by feature ([`process_feature`]).
 //! * [`time`]: tracks in time: times read from the properties or the 4th coordinate and
 //!   checked, the map between times and the curve parameter, speed and heading.
