@@ -19,8 +19,8 @@
 //! | 503 | `timeout` | the request ran past its time budget (`Retry-After`) |
 //! | 500 | `internal` | a bug (logged; the detail says nothing more) |
 
+use crate::document::InputError;
 use crate::earth::{EarthError, Problem};
-use crate::sphere::document::InputError;
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde_json::json;

@@ -13,8 +13,6 @@ pub mod interpolate;
 pub(crate) mod linalg;
 
 // The flat module paths from before the folders, kept so code written against them compiles.
-#[doc(hidden)]
-pub use crate::document;
 pub use certify::{bounds, dense, two_way};
 pub use compress::{coding, optimal, simplify, tolerance};
 pub use curve::{bezier, bspline};
@@ -22,8 +20,6 @@ pub use fit::{knots, metrics};
 pub use geometry::point;
 pub use interpolate::beta;
 
-#[doc(hidden)]
-pub use crate::document::{BetaDocument, SplineDocument};
 pub use beta::{interpolate, BetaInterpolation, BetaSolver, InterpolationOptions};
 pub use bezier::SphericalBezier;
 pub use bspline::SphericalBSpline;
@@ -206,7 +202,7 @@ pub enum SphereError {
 }
 
 /// The input a [`SphereError`] is about ([`SphereError::site`]). Each front end words it its
-/// own way: the documents as a JSON pointer ([`crate::document::pointer`]), the service as a
+/// own way: the documents as a JSON pointer (`document::pointer`), the service as a
 /// pointer or a query parameter, the command line as a pointer or a flag.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]

@@ -753,12 +753,11 @@ async fn sphere_endpoints_take_the_cli_documents() {
     let r = post_json(&app, "/v1/sphere/fit?control_points=4", &pts).await;
     assert_eq!(r.content_type(), "application/json");
     let doc = ok(&r);
-    let parsed: spherefit::sphere::document::FitDocument =
-        serde_json::from_value(doc.clone()).unwrap();
+    let parsed: spherefit::document::FitDocument = serde_json::from_value(doc.clone()).unwrap();
     assert_eq!(parsed.spline.control_points.len(), 4);
     assert_eq!(parsed.parameters.len(), 6);
     let ev = ok(&post_json(&app, "/v1/sphere/evaluate?samples=7", &doc).await);
-    let samples: spherefit::sphere::document::SamplesDocument = serde_json::from_value(ev).unwrap();
+    let samples: spherefit::document::SamplesDocument = serde_json::from_value(ev).unwrap();
     assert_eq!(samples.points.len(), 7);
     assert!((samples.points[0][0] - parsed.spline.control_points[0][0]).abs() < 1e-12);
     let at = ok(&post_json(&app, "/v1/sphere/evaluate?at=0,0.5,1", &doc["spline"]).await);

@@ -97,7 +97,7 @@ pub fn interpolate_line(
 pub(super) fn round_beta(
     s: &SphericalBetaSpline,
     precision: u32,
-) -> Result<(SphericalBetaSpline, Value), crate::sphere::document::InputError> {
+) -> Result<(SphericalBetaSpline, Value), crate::document::InputError> {
     let doc = BetaDocument::from(s);
     let round_pt = |p: &Vec<f64>| {
         let (lon, lat) = unit_to_lonlat(p);

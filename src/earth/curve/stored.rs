@@ -66,7 +66,7 @@ pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, Eart
             "control_points".into(),
             convert(cps, &format!("{pointer}/control_points"))?,
         );
-        let spline = crate::sphere::document::spline_from_json(&Value::Object(unit))
+        let spline = crate::document::spline_from_json(&Value::Object(unit))
             .map_err(|e| invalid(format!("{pointer}{}", e.pointer), e.message))?;
         Ok(AnyCurve::BSpline(spline))
     }
