@@ -58,6 +58,26 @@ mod tests {
             .collect::<Vec<_>>())
     }
 
+    /// [`fit_line`] with the default output options and limits, not in time.
+    fn fit_default(
+        coords: &Value,
+        pointer: &str,
+        path: Vec<usize>,
+        closed: bool,
+        options: &FitOptions,
+    ) -> Result<CurveOutput, EarthError> {
+        fit_line(
+            coords,
+            pointer,
+            path,
+            closed,
+            options,
+            &OutputOptions::default(),
+            &Limits::default(),
+            None,
+        )
+    }
+
     #[test]
     fn positions_are_checked_with_pointers() {
         let e = parse_positions(&json!([[0, 0], [1, 91]]), "/c").unwrap_err();
@@ -87,32 +107,10 @@ mod tests {
     #[test]
     fn too_few_distinct_points_lower_the_degree_or_fail() {
         let opts = FitOptions::default();
-        let out = OutputOptions::default();
-        let lim = Limits::default();
-        let r = fit_line(
-            &json!([[0, 0], [1, 1], [1, 1]]),
-            "/c",
-            vec![],
-            false,
-            &opts,
-            &out,
-            &lim,
-            None,
-        )
-        .unwrap();
+        let r = fit_default(&json!([[0, 0], [1, 1], [1, 1]]), "/c", vec![], false, &opts).unwrap();
         assert_eq!(r.report.fields["spline"]["degree"], 1);
         assert_eq!(r.report.fields["input_points"], 3);
-        let e = fit_line(
-            &json!([[0, 0], [0, 0]]),
-            "/c",
-            vec![],
-            false,
-            &opts,
-            &out,
-            &lim,
-            None,
-        )
-        .unwrap_err();
+        let e = fit_default(&json!([[0, 0], [0, 0]]), "/c", vec![], false, &opts).unwrap_err();
         assert!(matches!(
             e.problem,
             Problem::TooFewPoints { distinct: 1, .. }
@@ -121,15 +119,12 @@ mod tests {
 
     #[test]
     fn antipodal_neighbours_point_at_the_second() {
-        let e = fit_line(
+        let e = fit_default(
             &json!([[0, 0], [10, 0], [-170, 0]]),
             "/c",
             vec![],
             false,
             &FitOptions::default(),
-            &OutputOptions::default(),
-            &Limits::default(),
-            None,
         )
         .unwrap_err();
         assert_eq!(e.pointer, "/c/2");
@@ -145,15 +140,12 @@ mod tests {
                 45.0 + 2.0 * a.sin() + 0.2 * (5.0 * a).sin(),
             )
         });
-        let r = fit_line(
+        let r = fit_default(
             &ring,
             "/c",
             vec![0],
             true,
             &FitOptions::default().with_control_points(12),
-            &OutputOptions::default(),
-            &Limits::default(),
-            None,
         )
         .unwrap();
         assert_eq!(r.points.first(), r.points.last());
@@ -162,15 +154,12 @@ mod tests {
             .unwrap();
         assert_eq!(cps.first(), cps.last());
         assert!(r.report.max_error_m < 20_000.0, "{}", r.report.max_error_m);
-        let e = fit_line(
+        let e = fit_default(
             &json!([[0, 0], [1, 0], [1, 1], [0, 1]]),
             "/c",
             vec![0],
             true,
             &FitOptions::default(),
-            &OutputOptions::default(),
-            &Limits::default(),
-            None,
         )
         .unwrap_err();
         assert_eq!(e.pointer, "/c/3");
@@ -185,17 +174,7 @@ mod tests {
             [3, 0, 300],
             [4, 0, 400]
         ]);
-        let r = fit_line(
-            &line,
-            "",
-            vec![],
-            false,
-            &FitOptions::default(),
-            &OutputOptions::default(),
-            &Limits::default(),
-            None,
-        )
-        .unwrap();
+        let r = fit_default(&line, "", vec![], false, &FitOptions::default()).unwrap();
         assert!(r.has_alt);
         assert_eq!(r.alts[0], 0.0);
         assert_eq!(*r.alts.last().unwrap(), 400.0);
@@ -209,15 +188,12 @@ mod tests {
     #[test]
     fn reported_errors_are_those_of_the_returned_spline() {
         let line = coords(200, |u| (-20.0 + 40.0 * u, 5.0 * (8.0 * u).sin()));
-        let r = fit_line(
+        let r = fit_default(
             &line,
             "",
             vec![],
             false,
             &FitOptions::default().with_control_points(15),
-            &OutputOptions::default(),
-            &Limits::default(),
-            None,
         )
         .unwrap();
         let doc = &r.report.fields["spline"];

@@ -163,6 +163,23 @@ pub struct DistinctPositions {
 impl DistinctPositions {
     /// Drops repeats (within [`REPEAT_ANGLE_RAD`] of the previous kept position).
     pub fn from_line(line: &LinePositions) -> DistinctPositions {
+        Self::dropping(line, |_, last, p| {
+            angle_between(last, p) <= REPEAT_ANGLE_RAD
+        })
+    }
+
+    /// Drops the positions flagged in `duplicate` (records repeated exactly, time and
+    /// position), keeping every other one, even where the position repeats at a later time.
+    pub fn from_line_timed(line: &LinePositions, duplicate: &[bool]) -> DistinctPositions {
+        Self::dropping(line, |i, _, _| duplicate[i])
+    }
+
+    /// Keeps position 0 and every later position `i` for which `repeat(i, last kept, p)` is
+    /// false; a dropped one counts towards the multiplicity of the last kept one.
+    fn dropping(
+        line: &LinePositions,
+        repeat: impl Fn(usize, &[f64; 3], &[f64; 3]) -> bool,
+    ) -> DistinctPositions {
         let mut d = DistinctPositions {
             points: Vec::with_capacity(line.points.len()),
             input_index: Vec::with_capacity(line.points.len()),
@@ -171,32 +188,10 @@ impl DistinctPositions {
         };
         for (i, p) in line.points.iter().enumerate() {
             if let Some(last) = d.points.last() {
-                if angle_between(last, p) <= REPEAT_ANGLE_RAD {
+                if repeat(i, last, p) {
                     *d.multiplicity.last_mut().expect("non-empty") += 1;
                     continue;
                 }
-            }
-            d.points.push(*p);
-            d.input_index.push(i);
-            d.multiplicity.push(1);
-            d.alts.push(line.alts.as_ref().map_or(0.0, |a| a[i]));
-        }
-        d
-    }
-
-    /// Drops the positions flagged in `duplicate` (records repeated exactly, time and
-    /// position), keeping every other one, even where the position repeats at a later time.
-    pub fn from_line_timed(line: &LinePositions, duplicate: &[bool]) -> DistinctPositions {
-        let mut d = DistinctPositions {
-            points: Vec::with_capacity(line.points.len()),
-            input_index: Vec::with_capacity(line.points.len()),
-            multiplicity: Vec::with_capacity(line.points.len()),
-            alts: Vec::with_capacity(line.points.len()),
-        };
-        for (i, p) in line.points.iter().enumerate() {
-            if duplicate[i] && !d.points.is_empty() {
-                *d.multiplicity.last_mut().expect("non-empty") += 1;
-                continue;
             }
             d.points.push(*p);
             d.input_index.push(i);
