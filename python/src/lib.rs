@@ -95,17 +95,8 @@ where
 /// The output options and limits shared by the three GeoJSON operations, as the service reads
 /// its query (`samples` and `spacing_m` together: at most that far apart and at least that many).
 fn output(samples: Option<usize>, spacing_m: Option<f64>, precision: u32) -> OutputOptions {
-    let sampling = match (samples, spacing_m) {
-        (Some(n), Some(s)) => Sampling::SpacingAndSamples {
-            spacing_m: s,
-            samples: n,
-        },
-        (Some(n), None) => Sampling::Samples(n),
-        (None, Some(s)) => Sampling::SpacingM(s),
-        (None, None) => Sampling::Auto,
-    };
     OutputOptions {
-        sampling,
+        sampling: Sampling::from_samples_and_spacing(samples, spacing_m),
         precision,
     }
 }

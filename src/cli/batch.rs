@@ -432,11 +432,10 @@ fn job(
     time: TimeOptions,
     output: &OutputArgs,
 ) -> Result<Job, Failure> {
-    let sampling = match (output.samples, output.spacing_m, output.spacing_s) {
-        (_, _, Some(s)) => Sampling::SpacingS(s),
-        (Some(n), _, _) => Sampling::Samples(n),
-        (None, Some(s), _) => Sampling::SpacingM(s),
-        (None, None, None) => Sampling::Auto,
+    // clap lets --spacing-s go with neither of the others, --samples not with --spacing-m.
+    let sampling = match output.spacing_s {
+        Some(s) => Sampling::SpacingS(s),
+        None => Sampling::from_samples_and_spacing(output.samples, output.spacing_m),
     };
     let job = Job {
         operation,

@@ -53,6 +53,23 @@ pub enum Sampling {
     },
 }
 
+impl Sampling {
+    /// The sampling asked for by a number of points and a spacing in metres, as every front
+    /// end reads them: both together are at most that far apart and at least that many points;
+    /// neither is automatic.
+    pub fn from_samples_and_spacing(samples: Option<usize>, spacing_m: Option<f64>) -> Sampling {
+        match (samples, spacing_m) {
+            (Some(n), Some(s)) => Sampling::SpacingAndSamples {
+                spacing_m: s,
+                samples: n,
+            },
+            (Some(n), None) => Sampling::Samples(n),
+            (None, Some(s)) => Sampling::SpacingM(s),
+            (None, None) => Sampling::Auto,
+        }
+    }
+}
+
 /// A curve sampled densely.
 #[derive(Clone, Debug)]
 pub struct DenseCurve {

@@ -186,17 +186,8 @@ fn output_options(p: &Params) -> Result<OutputOptions, ApiError> {
             precision: precision(p)?,
         });
     }
-    let sampling = match (samples, spacing) {
-        (Some(n), Some(s)) => Sampling::SpacingAndSamples {
-            spacing_m: s,
-            samples: n,
-        },
-        (Some(n), None) => Sampling::Samples(n),
-        (None, Some(s)) => Sampling::SpacingM(s),
-        (None, None) => Sampling::Auto,
-    };
     Ok(OutputOptions {
-        sampling,
+        sampling: Sampling::from_samples_and_spacing(samples, spacing),
         precision: precision(p)?,
     })
 }
