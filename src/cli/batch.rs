@@ -454,6 +454,21 @@ fn job(
     Ok(job)
 }
 
+/// `--threads`: the size of the global worker pool (without it: RAYON_NUM_THREADS if set, else
+/// one thread per CPU).
+fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(Failure::input("--threads: use 1 or more"));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(|e| Failure::input(format!("--threads: {e}")))?;
+    }
+    Ok(())
+}
+
 /// The inputs named on the command line, checked before anything is read.
 fn inputs(paths: &[PathBuf]) -> Result<Vec<Input>, Failure> {
     if paths.is_empty() {
@@ -519,15 +534,7 @@ fn run(
     let allow_spline = matches!(operation, Operation::Evaluate);
     let job = job(operation, limits, time, output)?;
     topology::check_formats(&batch)?;
-    if let Some(n) = batch.threads {
-        if n == 0 {
-            return Err(Failure::input("--threads: use 1 or more"));
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .map_err(|e| Failure::input(format!("--threads: {e}")))?;
-    }
+    set_threads(batch.threads)?;
     let inputs = inputs(&batch.inputs)?;
     let out_path = batch.output.as_ref().filter(|p| p.as_os_str() != "-");
     if let Some(o) = out_path {

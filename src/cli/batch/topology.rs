@@ -77,15 +77,7 @@ pub(super) fn fit(a: FitArgs) -> Result<(), Failure> {
         )),
         other => Failure::input(format!("--topology shared: {other}")),
     })?;
-    if let Some(n) = batch.threads {
-        if n == 0 {
-            return Err(Failure::input("--threads: use 1 or more"));
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .map_err(|e| Failure::input(format!("--threads: {e}")))?;
-    }
+    super::set_threads(batch.threads)?;
     if batch.inputs.len() > 1 {
         return Err(Failure::input(
             "--topology shared fits one coverage: give one input (merge the files first)",
