@@ -602,7 +602,7 @@ fn curves_of_geometry(
         return Err(EarthError::new(
             format!("{ptr}/type"),
             Problem::InvalidTime(format!(
-                "a fit in time (parameterization=time) is for tracks (LineString, MultiLineString); a {kind}'s rings have no time order"
+                "a fit in time (parameterization time) is for tracks (LineString, MultiLineString); a {kind}'s rings have no time order"
             )),
         ));
     }
@@ -1281,7 +1281,7 @@ pub fn evaluate_spline_document(
         return Err(EarthError::new(
             pointer,
             Problem::InvalidSpline(
-                "a bare spline document has no times: evaluate the Feature of a fit made with parameterization=time to evaluate at times".into(),
+                "a bare spline document has no times: evaluate the Feature of a fit made with parameterization time to evaluate at times".into(),
             ),
         ));
     }

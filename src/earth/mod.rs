@@ -323,7 +323,7 @@ impl Job {
                 if !in_time {
                     return bad(
                         "spacing_s",
-                        "spacing in seconds needs a curve in time: fit with parameterization=time"
+                        "spacing in seconds needs a curve in time: fit with parameterization time"
                             .into(),
                     );
                 }
@@ -337,7 +337,7 @@ impl Job {
         if self.time.fit_in_time.is_some() && self.operation.fit_options().is_none() {
             return bad(
                 "parameterization",
-                "only a fit can be in time (parameterization=time)".into(),
+                "only a fit can be in time (parameterization time)".into(),
             );
         }
         if let Some(at) = &self.time.at_unix_s {

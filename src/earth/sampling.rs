@@ -154,7 +154,7 @@ pub fn sample(
             "",
             Problem::InvalidOption {
                 option: "spacing_s",
-                message: "this curve is not in time: fit with parameterization=time".into(),
+                message: "this curve is not in time: fit with parameterization time".into(),
             },
         )),
         // Certified halving needs no evenly spaced start: the ends and the curve's breaks

@@ -81,7 +81,7 @@ pub fn parse_positions_with(
                         "a position has 2 or 3 numbers ([longitude, latitude(, altitude)]), this one has {}{}",
                         nums.len(),
                         if nums.len() == 4 {
-                            " (a 4th number is read as a time only with parameterization=time)"
+                            " (a 4th number is read as a time only with parameterization time)"
                         } else {
                             ""
                         }

@@ -176,7 +176,7 @@ pub fn curve_in_time(
         return Err(EarthError::new(
             time_pointer,
             Problem::InvalidSpline(
-                "this fit is not in time (no \"time\" beside the spline): fit with parameterization=time to evaluate at times".into(),
+                "this fit is not in time (no \"time\" beside the spline): fit with parameterization time to evaluate at times".into(),
             ),
         ));
     };

@@ -129,13 +129,13 @@ pub fn validate(job: &Job, topology: Topology, format: OutputFormat) -> Result<(
     if topology == Topology::Shared && job.time.fit_in_time.is_some() {
         return bad(
             "topology",
-            "shared topology fits polygon rings, which carry no times: drop parameterization=time, time_property and spacing_s",
+            "shared topology fits polygon rings, which carry no times: drop parameterization time, time_property and spacing_s",
         );
     }
     if format == OutputFormat::TopoJson && topology != Topology::Shared {
         return bad(
             "format",
-            "TopoJSON output is made of shared arcs: give topology=shared too",
+            "TopoJSON output is made of shared arcs: give topology shared too",
         );
     }
     Ok(())
