@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The fast-solver bench (issue 6): 1M points, 2k control points, cubic on S^2.
+# The fast-solver bench: 1M points, 2k control points, cubic on S^2.
 # Runs spherefit's Gauss–Newton fit (all cores, then one) and scipy's Euclidean make_lsq_spline
 # on the same points and knots, each under /usr/bin/time -v for peak memory, and prints the
 # ratio. Needs `pip install numpy scipy`. Usage: benches/solver_compare.sh [points] [controls]

@@ -1,4 +1,4 @@
-//! The compression bench (issue 15 item 6): the spline of [`fit_to_tolerance`], spherical
+//! The compression bench: the spline of [`fit_to_tolerance`], spherical
 //! Douglas–Peucker and the optimal subset polyline ([`optimal_subset`]) at the same tolerance T
 //! (1, 5, 25, 100 and 500 m) on the three US–Mexico borders and the GPS tracks in `fixtures/`,
 //! and synthetic lines (a smooth track, a transatlantic flight, a noisy 1 Hz track with jumps).
@@ -10,7 +10,7 @@
 //! scripts/compression_bench.sh --time               # tracks in time: bytes per hour at an SED bound
 //! ```
 //!
-//! `--time` (issue 13): the fixture's timestamped GPS tracks and two synthetic 1 Hz tracks
+//! `--time`: the fixture's timestamped GPS tracks and two synthetic 1 Hz tracks
 //! fitted as position against time ([`fit_to_tolerance`] with the times as parameters, so the
 //! vertex error is the synchronized distance, SED) at SED 5, 10, 25 and 100 m, against the
 //! time-aware Douglas–Peucker ([`synchronized_douglas_peucker`], TD-TR) at the same bound.
@@ -137,7 +137,7 @@ fn noise(i: usize, salt: usize) -> f64 {
 }
 
 /// A 1 Hz track at 60 m/s with 8 m noise and a 300-800 m position jump (and back) every 90 s,
-/// like a low-level ADS-B flight (the issue-15 case): `n` points, the track of
+/// like a low-level ADS-B flight: `n` points, the track of
 /// `tests/it/two_way.rs` made longer.
 fn noisy_track_with_jumps(n: usize) -> Line {
     let rows: Vec<[f64; 3]> = (0..n)
@@ -197,7 +197,7 @@ fn data_sets(noisy_points: usize) -> Vec<DataSet> {
     sets
 }
 
-/// Points (seconds) of the noisy 1 Hz track by default: the length of the issue-15 flight
+/// Points (seconds) of the noisy 1 Hz track by default: a flight of about 4.4 hours
 /// (`--noisy-points N` for another).
 const NOISY_POINTS: usize = 16_000;
 

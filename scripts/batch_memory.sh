@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Peak memory and thread speed-up of the streaming batch CLI (issue 5).
+# Peak memory and thread speed-up of the streaming batch CLI.
 #
 # Generates a GeoJSON text sequence (RFC 8142) of 10,000 LineString features with 100 points
 # each (1,000,000 points; lines wander over the whole globe, some across the antimeridian),

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The compression bench of issues 7 and 15: numbers and bytes stored by fit_to_tolerance, a spherical
+# The compression bench: numbers and bytes stored by fit_to_tolerance, a spherical
 # Douglas–Peucker and the optimal subset polyline at the same tolerance (1, 5, 25, 100, 500 m),
 # their certified two-way distances to the line, and the time of each,
 # for the US–Mexico borders, the GPS tracks in fixtures/ and synthetic lines.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Soak test (issue 10): mixed good, bad, heavy and slow clients against a release server on
+# Soak test: mixed good, bad, heavy and slow clients against a release server on
 # loopback for SOAK_S seconds (default 180). Reports requests by status, p50/p99 latency of the
 # good requests, /health p99, the server's peak RSS, and whether every fitting slot was free at
 # the end. Bounded: the server stops itself after SOAK_S + 60 s.

@@ -13,6 +13,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rayon::prelude::*;
 use serde_json::{json, Value};
+use spherefit::document::tolerance_document;
 use spherefit::document::{
     curve_from_json, pointer_for, FitDocument, InterpolationDocument, SamplesDocument,
 };
@@ -22,9 +23,8 @@ use spherefit::earth::{
 };
 use spherefit::sphere::cancel::Cancel;
 use spherefit::sphere::curve::even_parameters;
-use spherefit::sphere::document::tolerance_document;
 use spherefit::sphere::{
-    fit, fit_to_tolerance, interpolate, BetaSolver, FitOptions, InterpolationOptions,
+    fit, fit_to_tolerance, interpolate, BetaSolver, FitOptions, InputSite, InterpolationOptions,
     KnotPlacement, Parameterization, PointSet, Solver, SphereError, SphericalCurve, StepRule,
     ToleranceOptions,
 };
@@ -95,30 +95,30 @@ where
 /// The output options and limits shared by the three GeoJSON operations, as the service reads
 /// its query (`samples` and `spacing_m` together: at most that far apart and at least that many).
 fn output(samples: Option<usize>, spacing_m: Option<f64>, precision: u32) -> OutputOptions {
-    let sampling = match (samples, spacing_m) {
-        (Some(n), Some(s)) => Sampling::SpacingAndSamples {
-            spacing_m: s,
-            samples: n,
-        },
-        (Some(n), None) => Sampling::Samples(n),
-        (None, Some(s)) => Sampling::SpacingM(s),
-        (None, None) => Sampling::Auto,
-    };
     OutputOptions {
-        sampling,
+        sampling: Sampling::from_samples_and_spacing(samples, spacing_m),
         precision,
     }
 }
 
 fn validated(job: Job) -> Result<Job, Failure> {
-    job.validate().map_err(|e| match e.problem {
-        Problem::InvalidOption { option, message } => Failure::option(format!(
-            "{option}: {}",
-            message.replace("the server's limit", "the limit")
-        )),
-        other => Failure::option(other.to_string()),
-    })?;
+    job.validate().map_err(option_failure)?;
     Ok(job)
+}
+
+/// An option the Earth layer refused, a count past its limit saying so.
+fn option_failure(e: EarthError) -> Failure {
+    match e.problem.option_message() {
+        Some((option, message)) => {
+            let limit = if matches!(e.problem, Problem::CountOutOfRange { .. }) {
+                " (the limit)"
+            } else {
+                ""
+            };
+            Failure::option(format!("{option}: {message}{limit}"))
+        }
+        None => Failure::option(e.problem.to_string()),
+    }
 }
 
 /// One processed feature: `None` when it passed through unchanged.
@@ -453,6 +453,16 @@ fn point_set(data: &[u8], m: usize, d: usize) -> Result<PointSet, Failure> {
     PointSet::try_from_rows(&rows).map_err(|e| sphere_failure(pointer_for("/points", &e), e))
 }
 
+/// Where a math-core error is ([`SphereError::site`]): an option by its keyword, the
+/// parameters, or a JSON pointer into the points.
+fn place(e: &SphereError) -> String {
+    match e.site() {
+        InputSite::Field { name, .. } => name.to_string(),
+        InputSite::Parameters => "parameters".to_string(),
+        _ => pointer_for("/points", e),
+    }
+}
+
 fn sphere_failure(pointer: String, e: SphereError) -> Failure {
     let message = format!("{pointer}: {e}");
     Failure {
@@ -498,13 +508,8 @@ fn sphere_fit(
             .with_step(parse::<StepRule>("step", step)?)
             .with_solver(parse::<Solver>("solver", solver)?);
         options.control_points = control_points;
-        if let Some(t) = target_max_error_rad {
-            if !(t.is_finite() && t >= 0.0) {
-                return Err(Failure::option(format!(
-                    "target_max_error_rad: {t}: the target must be a number of radians >= 0"
-                )));
-            }
-        }
+        spherefit::earth::check_target_max_error_rad(target_max_error_rad)
+            .map_err(option_failure)?;
         options.target_max_error_rad = target_max_error_rad;
         let points = point_set(&data, m, d)?;
         if let Some(tolerance_rad) = tolerance_rad {
@@ -513,29 +518,12 @@ fn sphere_fit(
                 ..ToleranceOptions::default()
             };
             t.degrees.retain(|&p| p <= degree.max(1));
-            let r = fit_to_tolerance(&points, parameters.as_deref(), tolerance_rad, &t).map_err(
-                |e| {
-                    let field = match e {
-                        SphereError::InvalidParameters { .. } => "parameters",
-                        SphereError::TooFewPoints { .. }
-                        | SphereError::AllPointsEqual { .. }
-                        | SphereError::Antipodal { .. } => "points",
-                        _ => "tolerance_rad",
-                    };
-                    sphere_failure(field.into(), e)
-                },
-            )?;
+            let r = fit_to_tolerance(&points, parameters.as_deref(), tolerance_rad, &t)
+                .map_err(|e| sphere_failure(place(&e), e))?;
             return Ok(tolerance_document(&r).to_string());
         }
-        let report = fit(&points, parameters.as_deref(), &options).map_err(|e| {
-            let field = match e {
-                SphereError::InvalidDegree { .. } => "degree".to_string(),
-                SphereError::InvalidControlPointCount { .. } => "control_points".to_string(),
-                SphereError::InvalidParameters { .. } => "parameters".to_string(),
-                _ => pointer_for("/points", &e),
-            };
-            sphere_failure(field, e)
-        })?;
+        let report = fit(&points, parameters.as_deref(), &options)
+            .map_err(|e| sphere_failure(place(&e), e))?;
         serde_json::to_string(&FitDocument::from(&report))
             .map_err(|e| Failure::option(format!("writing the document: {e}")))
     };
@@ -565,17 +553,12 @@ fn sphere_interpolate(
             .with_solver(parse::<BetaSolver>("solver", solver)?);
         options.max_iterations = max_iterations;
         let result = interpolate(&points, &options).map_err(|e| {
-            let pointer = match &e {
-                SphereError::InvalidShapeParameter { field, index, .. } => {
-                    format!("{field}/{index}")
-                }
-                SphereError::ShapeParameterCount { .. } => "beta".to_string(),
-                SphereError::RepeatedPoint { index, .. } | SphereError::Antipodal { index, .. } => {
-                    format!("/points/{index}")
-                }
-                SphereError::NotInterpolated { joint, .. }
-                | SphereError::DegenerateArc { joint, .. } => format!("/points/{joint}"),
-                _ => "/points".to_string(),
+            let pointer = match e.site() {
+                InputSite::Field {
+                    name,
+                    index: Some(i),
+                } => format!("{name}/{i}"),
+                _ => place(&e),
             };
             sphere_failure(pointer, e)
         })?;

@@ -21,8 +21,7 @@ mod topology;
 
 use super::Failure;
 use crate::earth::{
-    InterpolateSettings, Job, Limits, Operation, OutputOptions, Problem, Sampling, TimeOptions,
-    TimeSource,
+    InterpolateSettings, Job, Limits, Operation, OutputOptions, Sampling, TimeOptions, TimeSource,
 };
 use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
 use clap::Args;
@@ -433,11 +432,10 @@ fn job(
     time: TimeOptions,
     output: &OutputArgs,
 ) -> Result<Job, Failure> {
-    let sampling = match (output.samples, output.spacing_m, output.spacing_s) {
-        (_, _, Some(s)) => Sampling::SpacingS(s),
-        (Some(n), _, _) => Sampling::Samples(n),
-        (None, Some(s), _) => Sampling::SpacingM(s),
-        (None, None, None) => Sampling::Auto,
+    // clap lets --spacing-s go with neither of the others, --samples not with --spacing-m.
+    let sampling = match output.spacing_s {
+        Some(s) => Sampling::SpacingS(s),
+        None => Sampling::from_samples_and_spacing(output.samples, output.spacing_m),
     };
     let job = Job {
         operation,
@@ -452,15 +450,23 @@ fn job(
         cancel: Default::default(),
         time,
     };
-    job.validate().map_err(|e| match e.problem {
-        Problem::InvalidOption { option, message } => Failure::input(format!(
-            "--{}: {}",
-            option.replace('_', "-"),
-            message.replace("the server's limit", "the limit")
-        )),
-        other => Failure::input(other),
-    })?;
+    job.validate().map_err(Failure::option)?;
     Ok(job)
+}
+
+/// `--threads`: the size of the global worker pool (without it: RAYON_NUM_THREADS if set, else
+/// one thread per CPU).
+fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(Failure::input("--threads: use 1 or more"));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(|e| Failure::input(format!("--threads: {e}")))?;
+    }
+    Ok(())
 }
 
 /// The inputs named on the command line, checked before anything is read.
@@ -528,15 +534,7 @@ fn run(
     let allow_spline = matches!(operation, Operation::Evaluate);
     let job = job(operation, limits, time, output)?;
     topology::check_formats(&batch)?;
-    if let Some(n) = batch.threads {
-        if n == 0 {
-            return Err(Failure::input("--threads: use 1 or more"));
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .map_err(|e| Failure::input(format!("--threads: {e}")))?;
-    }
+    set_threads(batch.threads)?;
     let inputs = inputs(&batch.inputs)?;
     let out_path = batch.output.as_ref().filter(|p| p.as_os_str() != "-");
     if let Some(o) = out_path {

@@ -50,6 +50,27 @@ impl Failure {
             message: message.to_string(),
         }
     }
+
+    /// An option the Earth layer refused, named as its flag (`--control-points: ...`), a
+    /// count past its limit saying so: exit status 2.
+    pub(crate) fn option(e: crate::earth::EarthError) -> Failure {
+        match e.problem.option_message() {
+            Some((option, message)) => {
+                let limit = if matches!(e.problem, crate::earth::Problem::CountOutOfRange { .. }) {
+                    " (the limit)"
+                } else {
+                    ""
+                };
+                Failure::input(format!("{}: {message}{limit}", flag(option)))
+            }
+            None => Failure::input(e.problem),
+        }
+    }
+}
+
+/// The flag of an option the library names (`control_points` -> `--control-points`).
+pub(crate) fn flag(option: &str) -> String {
+    format!("--{}", option.replace('_', "-"))
 }
 
 /// Parses the command line, runs the command and returns the exit status.

@@ -14,48 +14,48 @@ pub(crate) struct ServeArgs {
     #[arg(long, env = "SPHEREFIT_ADDR", default_value = "127.0.0.1:8080")]
     addr: SocketAddr,
     /// Largest request body, in bytes; larger bodies get 413
-    #[arg(long, env = "SPHEREFIT_MAX_BODY_BYTES", default_value_t = 16 * 1024 * 1024)]
+    #[arg(long, env = "SPHEREFIT_MAX_BODY_BYTES", default_value_t = ServiceConfig::default().max_body_bytes)]
     max_body_bytes: usize,
     /// Most input positions per request; more get 413
-    #[arg(long, env = "SPHEREFIT_MAX_POINTS", default_value_t = 1_000_000)]
+    #[arg(long, env = "SPHEREFIT_MAX_POINTS", default_value_t = ServiceConfig::default().max_points)]
     max_points: usize,
     /// Most output positions per request; more get 422
-    #[arg(long, env = "SPHEREFIT_MAX_OUTPUT_POINTS", default_value_t = 5_000_000)]
+    #[arg(long, env = "SPHEREFIT_MAX_OUTPUT_POINTS", default_value_t = ServiceConfig::default().max_output_points)]
     max_output_points: usize,
     /// Most control points per curve; more get 422
-    #[arg(long, env = "SPHEREFIT_MAX_CONTROL_POINTS", default_value_t = 10_000)]
+    #[arg(long, env = "SPHEREFIT_MAX_CONTROL_POINTS", default_value_t = Limits::default().max_control_points)]
     max_control_points: usize,
     /// Most output points per curve (samples, or what spacing_m needs); more get 422
-    #[arg(long, env = "SPHEREFIT_MAX_SAMPLES", default_value_t = 100_000)]
+    #[arg(long, env = "SPHEREFIT_MAX_SAMPLES", default_value_t = Limits::default().max_samples)]
     max_samples: usize,
     /// Most GLS-PIA iterations per fit; more get 422
-    #[arg(long, env = "SPHEREFIT_MAX_ITERATIONS", default_value_t = 1_000)]
+    #[arg(long, env = "SPHEREFIT_MAX_ITERATIONS", default_value_t = Limits::default().max_iterations)]
     max_iterations: usize,
     /// Time budget of one request, in seconds; past it the request gets 503 with Retry-After
-    #[arg(long, env = "SPHEREFIT_TIMEOUT_S", default_value_t = 30.0)]
+    #[arg(long, env = "SPHEREFIT_TIMEOUT_S", default_value_t = ServiceConfig::default().request_timeout.as_secs_f64())]
     timeout_s: f64,
     /// Requests doing CPU work at once [default: the number of CPUs]
     #[arg(long, env = "SPHEREFIT_FIT_CONCURRENCY")]
     fit_concurrency: Option<usize>,
     /// Requests that may wait for a CPU slot; past that, 503 with Retry-After
-    #[arg(long, env = "SPHEREFIT_FIT_QUEUE", default_value_t = 64)]
+    #[arg(long, env = "SPHEREFIT_FIT_QUEUE", default_value_t = ServiceConfig::default().fit_queue)]
     fit_queue: usize,
     /// Requests of any kind in flight at once; past that, 503 with Retry-After
-    #[arg(long, env = "SPHEREFIT_MAX_IN_FLIGHT", default_value_t = 1024)]
+    #[arg(long, env = "SPHEREFIT_MAX_IN_FLIGHT", default_value_t = ServiceConfig::default().max_in_flight)]
     max_in_flight: usize,
     /// Time for a whole request body to arrive, in seconds (at most --timeout-s); past it, 408
-    #[arg(long, env = "SPHEREFIT_BODY_TIMEOUT_S", default_value_t = 10.0)]
+    #[arg(long, env = "SPHEREFIT_BODY_TIMEOUT_S", default_value_t = ServiceConfig::default().body_timeout.as_secs_f64())]
     body_timeout_s: f64,
     /// Bytes of request bodies held at once by all requests; a body waits for room (503 when
     /// none frees up within its body timeout)
-    #[arg(long, env = "SPHEREFIT_MAX_BODY_BYTES_IN_FLIGHT", default_value_t = 128 * 1024 * 1024)]
+    #[arg(long, env = "SPHEREFIT_MAX_BODY_BYTES_IN_FLIGHT", default_value_t = ServiceConfig::default().max_body_bytes_in_flight)]
     max_body_bytes_in_flight: usize,
     /// Time for a request header to arrive, in seconds; also how long an idle keep-alive
     /// connection stays open
-    #[arg(long, env = "SPHEREFIT_HEADER_TIMEOUT_S", default_value_t = 10.0)]
+    #[arg(long, env = "SPHEREFIT_HEADER_TIMEOUT_S", default_value_t = ServiceConfig::default().header_timeout.as_secs_f64())]
     header_timeout_s: f64,
     /// Open connections at once; past that, new connections get 503 and are closed
-    #[arg(long, env = "SPHEREFIT_MAX_CONNECTIONS", default_value_t = 1024)]
+    #[arg(long, env = "SPHEREFIT_MAX_CONNECTIONS", default_value_t = ServiceConfig::default().max_connections)]
     max_connections: usize,
     /// Log format on stderr: auto (text on a terminal, JSON otherwise), text or json.
     /// The level comes from RUST_LOG (default info)
@@ -184,4 +184,24 @@ pub(crate) fn run(args: ServeArgs) -> Result<(), Failure> {
     // Work abandoned past its budget stops at its next cancellation check; do not wait for it.
     runtime.shutdown_timeout(Duration::from_millis(500));
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Debug, Parser)]
+    struct Serve {
+        #[command(flatten)]
+        args: ServeArgs,
+    }
+
+    #[test]
+    fn no_flags_give_the_service_defaults() {
+        // The flags' defaults are read from `ServiceConfig::default()`; the durations go
+        // through seconds as f64 and must come back unchanged.
+        let args = Serve::try_parse_from(["serve"]).unwrap().args;
+        assert_eq!(args.config().unwrap(), ServiceConfig::default());
+    }
 }

@@ -1,11 +1,13 @@
 //! `spherefit sphere fit | interpolate | evaluate`: the math core on S^n, JSON in and out.
 
 use super::{read_json, write_json, Failure};
+use crate::document::pointer;
 use crate::document::{curve_from_json, InterpolationDocument};
-use crate::sphere::document::{tolerance_document, FitDocument, PointsInput, SamplesDocument};
+use crate::document::{tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
+use crate::sphere::SphericalCurve;
 use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, Solver, StepRule};
-use crate::sphere::{interpolate, BetaSolver, InterpolationOptions, SphereError, SphericalCurve};
+use crate::sphere::{interpolate, BetaSolver, InputSite, InterpolationOptions, SphereError};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -124,6 +126,10 @@ pub(crate) fn run(cmd: SphereCommand) -> Result<(), Failure> {
 }
 
 fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
+    crate::earth::check_target_max_error_rad(a.target_max_error_rad).map_err(Failure::option)?;
+    if let Some(tolerance_rad) = a.tolerance_rad {
+        crate::earth::check_tolerance("tolerance_rad", tolerance_rad).map_err(Failure::option)?;
+    }
     let input = PointsInput::from_json(&read_json(a.file.as_ref())?).map_err(Failure::input)?;
     let mut options = FitOptions::default()
         .with_degree(a.degree)
@@ -133,26 +139,12 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
         .with_step(a.step)
         .with_solver(a.solver);
     options.control_points = a.control_points;
-    if let Some(t) = a.target_max_error_rad {
-        if !(t.is_finite() && t >= 0.0) {
-            return Err(Failure::input(format!(
-                "--target-max-error-rad {t}: the target must be a number of radians >= 0"
-            )));
-        }
-    }
     options.target_max_error_rad = a.target_max_error_rad;
     if let Some(tolerance_rad) = a.tolerance_rad {
         return tolerance_cmd(&input, tolerance_rad, a.degree, a.parameterization);
     }
-    let report = fit(&input.points, input.parameters.as_deref(), &options).map_err(|e| {
-        let field = match e {
-            crate::sphere::SphereError::InvalidDegree { .. } => "--degree",
-            crate::sphere::SphereError::InvalidControlPointCount { .. } => "--control-points",
-            crate::sphere::SphereError::InvalidParameters { .. } => "parameters",
-            _ => "points",
-        };
-        Failure::input(format!("{field}: {e}"))
-    })?;
+    let report = fit(&input.points, input.parameters.as_deref(), &options)
+        .map_err(|e| sphere_failure(&e, input.points_pointer))?;
     write_json(&FitDocument::from(&report))
 }
 
@@ -175,16 +167,7 @@ fn tolerance_cmd(
         tolerance_rad,
         &options,
     )
-    .map_err(|e| {
-        let field = match e {
-            SphereError::InvalidParameters { .. } => "parameters",
-            SphereError::TooFewPoints { .. }
-            | SphereError::AllPointsEqual { .. }
-            | SphereError::Antipodal { .. } => "points",
-            _ => "--tolerance-rad",
-        };
-        Failure::input(format!("{field}: {e}"))
-    })?;
+    .map_err(|e| sphere_failure(&e, input.points_pointer))?;
     write_json(&tolerance_document(&r))
 }
 
@@ -197,32 +180,41 @@ fn interpolate_cmd(a: InterpolateArgs) -> Result<(), Failure> {
              parameter j; shape it with --beta1 and --beta2",
         ));
     }
-    let base = if v.is_array() { "" } else { "/points" };
     let mut options = InterpolationOptions::default()
         .with_beta1_per_point(a.beta1)
         .with_beta2_per_point(a.beta2)
         .with_solver(a.solver);
     options.max_iterations = a.max_iterations;
-    let result = interpolate(&input.points, &options).map_err(|e| {
-        Failure::input(match e {
-            SphereError::InvalidShapeParameter {
-                field,
-                index,
-                value,
-                rule,
-            } => format!("--{field}, value {index}: {value} is out of range: {rule}"),
-            SphereError::ShapeParameterCount { .. } => format!("--{e}"),
-            SphereError::RepeatedPoint { index, .. } | SphereError::Antipodal { index, .. } => {
-                format!("{base}/{index}: {e}")
-            }
-            SphereError::NotInterpolated { joint, .. }
-            | SphereError::DegenerateArc { joint, .. } => {
-                format!("{base}/{joint}: {e}")
-            }
-            _ => format!("{}: {e}", if base.is_empty() { "(document)" } else { base }),
-        })
-    })?;
+    let result = interpolate(&input.points, &options)
+        .map_err(|e| sphere_failure(&e, input.points_pointer))?;
     write_json(&InterpolationDocument::from(&result))
+}
+
+/// A math-core error as the command line words it: the place ([`SphereError::site`]) first,
+/// an option as its flag (`--degree`, `--beta2, value 2`), anything in the input as a JSON
+/// pointer (`/points/3`, `/parameters`) below the document whose points are at `points`.
+fn sphere_failure(e: &SphereError, points: &str) -> Failure {
+    let place = match e.site() {
+        InputSite::Field { name, index } => {
+            let flag = super::flag(name);
+            match index {
+                Some(i) => format!("{flag}, value {i}"),
+                None => flag,
+            }
+        }
+        site => match pointer(site, "", points) {
+            p if p.is_empty() => "(document)".to_string(),
+            p => p,
+        },
+    };
+    let message = match e {
+        // The place names the option and the value: say what is wrong with it.
+        SphereError::InvalidShapeParameter { value, rule, .. } => {
+            format!("{value} is out of range: {rule}")
+        }
+        _ => e.to_string(),
+    };
+    Failure::input(format!("{place}: {message}"))
 }
 
 fn evaluate_cmd(a: EvaluateArgs) -> Result<(), Failure> {

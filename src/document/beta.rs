@@ -1,12 +1,12 @@
 //! The Beta-spline documents: a Beta-spline as JSON, the `interpolate` result, and reading any
 //! curve document (B-spline or Beta-spline) with errors that carry a JSON pointer.
 
-use super::{number_list, number_rows, pointer_for, spline_from_json, InputError};
+use super::{number_list, number_rows, pointer, spline_from_json, InputError};
 use crate::sphere::curve::beta::{expand_shape_parameters, SphericalBetaSpline};
 use crate::sphere::curve::AnyCurve;
 use crate::sphere::geometry::point::{angle, Dynamic, PointSet};
 use crate::sphere::interpolate::beta::BetaInterpolation;
-use crate::sphere::SphereError;
+use crate::sphere::InputSite;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -97,15 +97,19 @@ impl BetaDocument {
             .flat_map(|s| s.iter().map(Vec::as_slice))
             .collect();
         let all = PointSet::try_from_rows(&rows).map_err(|e| {
-            let p = pointer_for("", &e);
             // Flat row index 4 s + k -> /segments/s/k.
-            let mut parts = p.trim_start_matches('/').splitn(2, '/');
-            let row: usize = parts.next().and_then(|x| x.parse().ok()).unwrap_or(0);
-            let rest = parts.next().map(|c| format!("/{c}")).unwrap_or_default();
-            InputError::at(
-                format!("{base}/segments/{}/{}{rest}", row / 4, row % 4),
-                e.to_string(),
-            )
+            let pointer = match e.site() {
+                InputSite::Point { index, coord } => pointer(
+                    InputSite::Point {
+                        index: index % 4,
+                        coord,
+                    },
+                    "",
+                    &format!("{base}/segments/{}", index / 4),
+                ),
+                _ => format!("{base}/segments"),
+            };
+            InputError::at(pointer, e.to_string())
         })?;
         let (dim, d) = (all.dim(), Dynamic(all.dim()));
         let mut control = Vec::with_capacity((3 * n + 1) * dim);
@@ -130,7 +134,7 @@ impl BetaDocument {
         }
         let control = PointSet::from_flat_unchecked(dim, control);
         if let Err(e) = control.check_no_antipodal_neighbours() {
-            if let SphereError::Antipodal { index, .. } = e {
+            if let InputSite::Point { index, .. } = e.site() {
                 let s = (index - 1) / 3;
                 return Err(InputError::at(
                     format!("{base}/segments/{s}/{}", index - 3 * s),
@@ -155,16 +159,7 @@ impl BetaDocument {
                     ),
                 ));
             }
-            Err(e) => {
-                let pointer = match &e {
-                    SphereError::InvalidShapeParameter { field, index, .. } => {
-                        format!("{base}/{field}/{index}")
-                    }
-                    SphereError::ShapeParameterCount { field, .. } => format!("{base}/{field}"),
-                    _ => base.to_string(),
-                };
-                return Err(InputError::at(pointer, e.to_string()));
-            }
+            Err(e) => return Err(InputError::at(pointer(e.site(), base, base), e.to_string())),
         };
         Ok(SphericalBetaSpline::from_parts(beta1, beta2, control))
     }

@@ -10,7 +10,7 @@ pub use beta::{beta_from_json, curve_from_json, BetaDocument, InterpolationDocum
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::fit::{FitReport, IterationError};
 use crate::sphere::geometry::point::PointSet;
-use crate::sphere::SphereError;
+use crate::sphere::{InputSite, SphereError};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -71,9 +71,8 @@ impl SplineDocument {
                 source,
             })?;
         SphericalBSpline::try_new(self.degree, self.knots.clone(), control).map_err(|source| {
-            let field = match source {
-                SphereError::InvalidDegree { .. } => "degree",
-                SphereError::InvalidKnots { .. } => "knots",
+            let field = match source.site() {
+                InputSite::Field { name, .. } => name,
                 _ => "control_points",
             };
             DocumentError { field, source }
@@ -102,15 +101,33 @@ impl InputError {
     }
 }
 
-/// The pointer into a list of points (`base`, e.g. `/points`) that a [`SphereError`] names.
+/// The pointer into a list of points (`base`, e.g. `/points`) that a [`SphereError`] names:
+/// the point (`/points/3`) or its coordinate (`/points/3/1`), else `base` itself.
 pub fn pointer_for(base: &str, e: &SphereError) -> String {
-    match *e {
-        SphereError::NotFinite { index, coord } => format!("{base}/{index}/{coord}"),
-        SphereError::DimensionTooSmall { index, .. }
-        | SphereError::DimensionMismatch { index, .. }
-        | SphereError::NotUnit { index, .. }
-        | SphereError::Antipodal { index, .. } => format!("{base}/{index}"),
+    match e.site() {
+        site @ InputSite::Point { .. } => pointer(site, "", base),
         _ => base.to_string(),
+    }
+}
+
+/// The JSON pointer of an [`InputSite`] in a document whose fields are below `doc` and whose
+/// points are the array at `points`: `{doc}/beta1/2`, `{doc}/parameters`, `{points}/3/1`,
+/// `{points}`; `doc` itself for [`InputSite::Nothing`].
+pub fn pointer(site: InputSite, doc: &str, points: &str) -> String {
+    match site {
+        InputSite::Field { name, index: None } => format!("{doc}/{name}"),
+        InputSite::Field {
+            name,
+            index: Some(i),
+        } => format!("{doc}/{name}/{i}"),
+        InputSite::Parameters => format!("{doc}/parameters"),
+        InputSite::Point { index, coord: None } => format!("{points}/{index}"),
+        InputSite::Point {
+            index,
+            coord: Some(c),
+        } => format!("{points}/{index}/{c}"),
+        InputSite::Points => points.to_string(),
+        InputSite::Nothing => doc.to_string(),
     }
 }
 
@@ -122,6 +139,8 @@ pub struct PointsInput {
     pub points: PointSet,
     /// One parameter per point (timestamps, for example), if given.
     pub parameters: Option<Vec<f64>>,
+    /// Where the points are in the document: `/points`, or `""` for a bare array.
+    pub points_pointer: &'static str,
 }
 
 impl PointsInput {
@@ -159,7 +178,11 @@ impl PointsInput {
             Some(p) => Some(number_list(p, "/parameters")?),
             None => None,
         };
-        Ok(PointsInput { points, parameters })
+        Ok(PointsInput {
+            points,
+            parameters,
+            points_pointer: base,
+        })
     }
 }
 

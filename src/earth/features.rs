@@ -120,7 +120,7 @@ impl Document {
             if map.get("crs").and_then(Value::as_str) != Some("lonlat") {
                 return Err(invalid(
                     "/crs",
-                    "a bare spline document needs \"crs\": \"lonlat\" (documents of unit vectors go to /v1/sphere/evaluate)",
+                    "a bare spline document needs \"crs\": \"lonlat\" (a document of unit vectors is an S^n document: evaluate it on S^n)",
                 ));
             }
             return Ok(Document {
@@ -602,7 +602,7 @@ fn curves_of_geometry(
         return Err(EarthError::new(
             format!("{ptr}/type"),
             Problem::InvalidTime(format!(
-                "a fit in time (parameterization=time) is for tracks (LineString, MultiLineString); a {kind}'s rings have no time order"
+                "a fit in time (parameterization time) is for tracks (LineString, MultiLineString); a {kind}'s rings have no time order"
             )),
         ));
     }
@@ -787,7 +787,7 @@ fn curves_of_fit<'a>(
         return Err(invalid(
             iptr,
             format!(
-                "expected \"{doc_key}\" or \"parts\" (as written by /v1/fit or /v1/interpolate)"
+                "expected \"{doc_key}\" or \"parts\" (as a fit or an interpolation writes them)"
             ),
         ));
     };
@@ -1281,7 +1281,7 @@ pub fn evaluate_spline_document(
         return Err(EarthError::new(
             pointer,
             Problem::InvalidSpline(
-                "a bare spline document has no times: evaluate the Feature of a fit made with parameterization=time to evaluate at times".into(),
+                "a bare spline document has no times: evaluate the Feature of a fit made with parameterization time to evaluate at times".into(),
             ),
         ));
     }

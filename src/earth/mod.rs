@@ -7,6 +7,9 @@
 //! * [`antimeridian`]: lon/lat output cut at ±180 degrees (RFC 7946 §3.1.9), poles.
 //! * [`sampling`]: dense output of a curve (`samples`, `spacing_m`, or automatic).
 //! * [`curve`]: one line or ring: positions parsed and checked, repeats dropped, fitted.
+//! * [`check_fit_options`], [`check_tolerance`], [`Job::validate`]: the option checks that
+//!   the service and the command line share; errors carry the data ([`Problem::CountOutOfRange`]
+//!   names the limit) and each front end words them.
 //! * [`features`]: GeoJSON documents walked feature by feature ([`process_feature`]).
 //! * [`time`]: tracks in time: times read from the properties or the 4th coordinate and
 //!   checked, the map between times and the curve parameter, speed and heading.
@@ -99,7 +102,7 @@ impl Default for Limits {
     }
 }
 
-/// Shape parameters of Beta-spline interpolation (`/v1/interpolate`).
+/// Shape parameters of Beta-spline interpolation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct InterpolateSettings {
     /// Bias (1 = none), at every vertex.
@@ -290,27 +293,11 @@ impl Job {
         match self.output.sampling {
             Sampling::Auto => {}
             Sampling::Samples(n) => {
-                if n < 2 || n > self.limits.max_samples {
-                    return bad(
-                        "samples",
-                        format!(
-                            "{n} samples: use 2 to {} per line (the server's limit)",
-                            self.limits.max_samples
-                        ),
-                    );
-                }
+                check_count("samples", n, 2, self.limits.max_samples)?;
             }
             Sampling::SpacingM(s) | Sampling::SpacingAndSamples { spacing_m: s, .. } => {
                 if let Sampling::SpacingAndSamples { samples: n, .. } = self.output.sampling {
-                    if n < 2 || n > self.limits.max_samples {
-                        return bad(
-                            "samples",
-                            format!(
-                                "{n} samples: use 2 to {} per line (the server's limit)",
-                                self.limits.max_samples
-                            ),
-                        );
-                    }
+                    check_count("samples", n, 2, self.limits.max_samples)?;
                 }
                 if !(s.is_finite() && s > 0.0) {
                     return bad(
@@ -336,7 +323,7 @@ impl Job {
                 if !in_time {
                     return bad(
                         "spacing_s",
-                        "spacing in seconds needs a curve in time: fit with parameterization=time"
+                        "spacing in seconds needs a curve in time: fit with parameterization time"
                             .into(),
                     );
                 }
@@ -350,23 +337,14 @@ impl Job {
         if self.time.fit_in_time.is_some() && self.operation.fit_options().is_none() {
             return bad(
                 "parameterization",
-                "only a fit can be in time (parameterization=time)".into(),
+                "only a fit can be in time (parameterization time)".into(),
             );
         }
         if let Some(at) = &self.time.at_unix_s {
             if !matches!(self.operation, Operation::Evaluate) {
                 return bad("at", "times to evaluate at are for evaluation only".into());
             }
-            if at.is_empty() || at.len() > self.limits.max_samples {
-                return bad(
-                    "at",
-                    format!(
-                        "{} times: give 1 to {} (the server's limit)",
-                        at.len(),
-                        self.limits.max_samples
-                    ),
-                );
-            }
+            check_count("at", at.len(), 1, self.limits.max_samples)?;
             if let Some(t) = at.iter().find(|t| !t.is_finite()) {
                 return bad("at", format!("{t} is not a finite time"));
             }
@@ -380,34 +358,7 @@ impl Job {
         }
         match &self.operation {
             Operation::Fit(o) => {
-                let max_degree = crate::sphere::bspline::MAX_DEGREE;
-                if o.degree == 0 || o.degree > max_degree {
-                    return bad(
-                        "degree",
-                        format!("degree {}: use 1 to {max_degree}", o.degree),
-                    );
-                }
-                if let Some(n) = o.control_points {
-                    if n < o.degree + 1 || n > self.limits.max_control_points {
-                        return bad(
-                            "control_points",
-                            format!(
-                                "{n} control points: use degree + 1 = {} to {} (the server's limit)",
-                                o.degree + 1,
-                                self.limits.max_control_points
-                            ),
-                        );
-                    }
-                }
-                if o.iterations > self.limits.max_iterations {
-                    return bad(
-                        "iterations",
-                        format!(
-                            "{} iterations: use 0 to {} (the server's limit)",
-                            o.iterations, self.limits.max_iterations
-                        ),
-                    );
-                }
+                check_fit_options(o, &self.limits)?;
                 if o.knot_vector.is_some() {
                     return bad(
                         "knots",
@@ -419,19 +370,8 @@ impl Job {
                 options: o,
                 tolerance_m,
             } => {
-                let max_degree = crate::sphere::bspline::MAX_DEGREE;
-                if o.degree == 0 || o.degree > max_degree {
-                    return bad(
-                        "degree",
-                        format!("degree {}: use 1 to {max_degree}", o.degree),
-                    );
-                }
-                if !(tolerance_m.is_finite() && *tolerance_m > 0.0) {
-                    return bad(
-                        "tolerance_m",
-                        format!("{tolerance_m}: the tolerance must be a positive number of metres"),
-                    );
-                }
+                check_degree(o.degree)?;
+                check_tolerance("tolerance_m", *tolerance_m)?;
                 if o.control_points.is_some() {
                     return bad(
                         "tolerance_m",
@@ -456,6 +396,95 @@ impl Job {
         }
         Ok(())
     }
+}
+
+/// Checks fit options against their ranges and `limits`, before any data is read: the degree,
+/// the number of control points (degree + 1 to the limit), the iterations (up to the limit)
+/// and the target error. Shared by every front end that fits, on the Earth or on S^n.
+///
+/// # Errors
+/// [`Problem::InvalidOption`] or [`Problem::CountOutOfRange`] naming the option.
+pub fn check_fit_options(o: &FitOptions, limits: &Limits) -> Result<(), EarthError> {
+    check_degree(o.degree)?;
+    if let Some(n) = o.control_points {
+        check_count("control_points", n, o.degree + 1, limits.max_control_points)?;
+    }
+    check_count("iterations", o.iterations, 0, limits.max_iterations)?;
+    check_target_max_error_rad(o.target_max_error_rad)
+}
+
+/// The spline degree: 1 to [`crate::sphere::bspline::MAX_DEGREE`].
+///
+/// # Errors
+/// [`Problem::InvalidOption`] naming `degree`.
+pub fn check_degree(degree: usize) -> Result<(), EarthError> {
+    let max_degree = crate::sphere::bspline::MAX_DEGREE;
+    if degree == 0 || degree > max_degree {
+        return Err(invalid_option(
+            "degree",
+            format!("degree {degree}: use 1 to {max_degree}"),
+        ));
+    }
+    Ok(())
+}
+
+/// The target maximum error of a fit, if given: a number of radians >= 0.
+///
+/// # Errors
+/// [`Problem::InvalidOption`] naming `target_max_error_rad`.
+pub fn check_target_max_error_rad(target: Option<f64>) -> Result<(), EarthError> {
+    match target {
+        Some(t) if !(t.is_finite() && t >= 0.0) => Err(invalid_option(
+            "target_max_error_rad",
+            format!("{t}: the target must be a number of radians >= 0"),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// A tolerance: a positive, finite number, of metres (`tolerance_m`) or radians
+/// (`tolerance_rad`, the S^n fit).
+///
+/// # Errors
+/// [`Problem::InvalidOption`] naming the option.
+pub fn check_tolerance(option: &'static str, tolerance: f64) -> Result<(), EarthError> {
+    if tolerance.is_finite() && tolerance > 0.0 {
+        return Ok(());
+    }
+    let unit = if option == "tolerance_m" {
+        "metres"
+    } else {
+        "radians"
+    };
+    Err(invalid_option(
+        option,
+        format!("{tolerance}: the tolerance must be a positive number of {unit}"),
+    ))
+}
+
+/// A count option in `min..=max`, `max` the limit that bounds it.
+fn check_count(
+    option: &'static str,
+    value: usize,
+    min: usize,
+    max: usize,
+) -> Result<(), EarthError> {
+    if value < min || value > max {
+        return Err(EarthError::new(
+            "",
+            Problem::CountOutOfRange {
+                option,
+                value,
+                min,
+                max,
+            },
+        ));
+    }
+    Ok(())
+}
+
+fn invalid_option(option: &'static str, message: String) -> EarthError {
+    EarthError::new("", Problem::InvalidOption { option, message })
 }
 
 /// A GeoJSON input that cannot be processed: a JSON pointer to the offending value
@@ -526,6 +555,30 @@ pub enum Problem {
         /// The limit per line.
         max: usize,
     },
+    /// A count option (`samples`, `at`, `control_points`, `iterations`) outside `min..=max`,
+    /// where `max` is the limit of [`Limits`] that bounds it. The message does not say whose
+    /// limit it is: the service and the command line add that.
+    #[error("{option}: {}", count_out_of_range_text(option, *value, *min, *max))]
+    CountOutOfRange {
+        /// The option's name.
+        option: &'static str,
+        /// The count asked for.
+        value: usize,
+        /// The least that works.
+        min: usize,
+        /// The limit.
+        max: usize,
+    },
+    /// An option that works only with another one, which is missing.
+    #[error("{option}: {reason}: give {requires} too")]
+    RequiresOption {
+        /// The option given.
+        option: &'static str,
+        /// The option it needs.
+        requires: &'static str,
+        /// Why it needs it.
+        reason: &'static str,
+    },
     /// An option out of range or not allowed.
     #[error("{option}: {message}")]
     InvalidOption {
@@ -592,6 +645,18 @@ pub fn parse_json_number(s: &str) -> Option<f64> {
     s.parse().ok()
 }
 
+/// `2 control points: use degree + 1 = 4 to 10000`, `0 samples: use 2 to 100000 per line`.
+fn count_out_of_range_text(option: &str, value: usize, min: usize, max: usize) -> String {
+    match option {
+        "samples" => format!("{value} samples: use {min} to {max} per line"),
+        "at" => format!("{value} times: give {min} to {max}"),
+        "control_points" => {
+            format!("{value} control points: use degree + 1 = {min} to {max}")
+        }
+        _ => format!("{value} {}: use {min} to {max}", option.replace('_', " ")),
+    }
+}
+
 /// A count for a message: "more than 10^18" for counts that saturated.
 fn count_text(n: usize) -> String {
     if n as u128 >= 1_000_000_000_000_000_000 {
@@ -602,6 +667,22 @@ fn count_text(n: usize) -> String {
 }
 
 impl Problem {
+    /// The option at fault and what is wrong with it (without the option's name), for an
+    /// [`Problem::InvalidOption`] or a [`Problem::CountOutOfRange`]; each front end names the
+    /// option its own way (a query parameter, a flag) and says whose limit a count passed.
+    pub fn option_message(&self) -> Option<(&'static str, String)> {
+        match self {
+            Problem::InvalidOption { option, message } => Some((option, message.clone())),
+            Problem::CountOutOfRange {
+                option,
+                value,
+                min,
+                max,
+            } => Some((option, count_out_of_range_text(option, *value, *min, *max))),
+            _ => None,
+        }
+    }
+
     /// A stable, machine-readable name for the kind of problem (used in problem+json `type`).
     pub fn slug(&self) -> &'static str {
         match self {
@@ -612,7 +693,9 @@ impl Problem {
             Problem::Antipodal { .. } => "antipodal-points",
             Problem::TooManyControlPoints { .. } => "too-many-control-points",
             Problem::TooManySamples { .. } => "too-many-samples",
-            Problem::InvalidOption { .. } => "invalid-option",
+            Problem::InvalidOption { .. }
+            | Problem::CountOutOfRange { .. }
+            | Problem::RequiresOption { .. } => "invalid-option",
             Problem::InvalidSpline(_) => "invalid-spline",
             Problem::InvalidTime(_) => "invalid-time",
             Problem::Fit(SphereError::Cancelled) => "cancelled",

@@ -19,8 +19,8 @@
 //! | 503 | `timeout` | the request ran past its time budget (`Retry-After`) |
 //! | 500 | `internal` | a bug (logged; the detail says nothing more) |
 
+use crate::document::InputError;
 use crate::earth::{EarthError, Problem};
-use crate::sphere::document::InputError;
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde_json::json;
@@ -246,8 +246,12 @@ impl From<EarthError> for ApiError {
         let slug = e.problem.slug();
         let detail = e.problem.to_string();
         match e.problem {
-            Problem::InvalidOption { option, .. } => {
+            Problem::InvalidOption { option, .. } | Problem::RequiresOption { option, .. } => {
                 ApiError::unprocessable(slug, detail).param(option)
+            }
+            Problem::CountOutOfRange { option, .. } => {
+                ApiError::unprocessable(slug, format!("{detail} (the server's limit)"))
+                    .param(option)
             }
             // Only spacing_m can ask for more points than the limit once the options passed
             // validation; the pointer says which line.

@@ -1,66 +1,29 @@
-//! Route handlers. Each POST handler checks the content type and the query, reads the body
-//! within its bounds ([`super::body`]), takes a fitting slot, and does all parsing and CPU work
-//! on the blocking pool within the request's time budget, checking every output size before
-//! the work that would make it. A request rejected before its body is read still reads (and
-//! discards) what the client sends, so the client sees the answer.
+//! Route handlers. Each POST handler takes a [`PostRequest`] (the content type and the query
+//! are checked before the body is read, the body is read within its bounds) and does all
+//! parsing and CPU work on the blocking pool within the request's time budget
+//! ([`super::request::Accepted::run`]), checking every output size before the work that would
+//! make it.
 
-use super::body::{read_body, reject, HeldBody};
 use super::error::ApiError;
 use super::query::{self, fit_options, GeoEndpoint, Params};
+use super::request::PostRequest;
 use super::{AppState, ServiceConfig, OPENAPI_YAML};
 use crate::document::{curve_from_json, InterpolationDocument};
+use crate::document::{pointer, tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::earth::{Document, FeatureStats, Job};
 use crate::sphere::cancel::Cancel;
-use crate::sphere::document::{
-    pointer_for, tolerance_document, FitDocument, PointsInput, SamplesDocument,
-};
 use crate::sphere::interpolate;
 use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
-use crate::sphere::{InterpolationOptions, SphereError, SphericalCurve};
-use axum::body::Body;
-use axum::extract::rejection::QueryRejection;
-use axum::extract::{Query, State};
-use axum::http::{header, HeaderMap, HeaderValue, StatusCode, Uri};
+use crate::sphere::{InputSite, InterpolationOptions, SphereError, SphericalCurve};
+use axum::extract::State;
+use axum::http::{header, HeaderValue, StatusCode, Uri};
 use axum::response::{IntoResponse, Response};
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Instant;
 
 const GEO_JSON: &str = "application/geo+json";
 const JSON: &str = "application/json";
-
-type QueryPairs = Result<Query<Vec<(String, String)>>, QueryRejection>;
-
-fn pairs(q: QueryPairs) -> Result<Vec<(String, String)>, ApiError> {
-    q.map(|Query(p)| p).map_err(|e| {
-        ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "invalid-query",
-            format!("the query string cannot be read: {}", e.body_text()),
-        )
-    })
-}
-
-/// Checks the `Content-Type` (parameters such as `charset` are ignored).
-fn check_content_type(headers: &HeaderMap, accepted: &[&str]) -> Result<(), ApiError> {
-    let expected = accepted.join(" or ");
-    let Some(v) = headers.get(header::CONTENT_TYPE) else {
-        return Err(ApiError::unsupported_media_type(&expected, None));
-    };
-    let text = v.to_str().unwrap_or("");
-    let essence = text
-        .split(';')
-        .next()
-        .unwrap_or("")
-        .trim()
-        .to_ascii_lowercase();
-    if accepted.contains(&essence.as_str()) {
-        Ok(())
-    } else {
-        Err(ApiError::unsupported_media_type(&expected, Some(text)))
-    }
-}
 
 /// Parses JSON; a UTF-8 byte order mark in front is skipped (RFC 8259 §8.1 lets a parser
 /// ignore it, and Windows tools write one).
@@ -70,75 +33,6 @@ fn parse_json(bytes: &[u8]) -> Result<Value, ApiError> {
         .map_err(|e| ApiError::malformed_json(format!("the body is not valid JSON: {e}")))
 }
 
-/// Cancels the work when the request is dropped (time budget, client gone).
-struct CancelOnDrop(Cancel);
-
-impl Drop for CancelOnDrop {
-    fn drop(&mut self) {
-        self.0.cancel();
-    }
-}
-
-/// Checks a request before its body is read; on error the body is drained first (see the
-/// module docs).
-async fn precheck<T>(
-    state: &AppState,
-    body: Body,
-    check: impl FnOnce() -> Result<T, ApiError>,
-) -> Result<(T, Body), ApiError> {
-    match check() {
-        Ok(t) => Ok((t, body)),
-        Err(e) => Err(reject(state, body, e).await),
-    }
-}
-
-/// Maps a cancelled computation to 503 `timeout`; other errors stay as they are.
-fn cancelled_is_timeout(e: ApiError, config: &ServiceConfig) -> ApiError {
-    if e.slug == "cancelled" {
-        ApiError::timeout(config.request_timeout.as_secs_f64())
-    } else {
-        e
-    }
-}
-
-/// Runs `work` on the blocking pool holding a fitting slot, within the time budget. The work
-/// gets a [`Cancel`] that fires at the deadline or when the request is dropped, and keeps the
-/// body (and its share of the byte budget) until it ends.
-async fn run_cpu<T: Send + 'static>(
-    state: &AppState,
-    route: &'static str,
-    start: Instant,
-    body: HeldBody,
-    work: impl FnOnce(&[u8], &Cancel) -> Result<(T, usize, usize), ApiError> + Send + 'static,
-) -> Result<T, ApiError> {
-    let budget = state.config.request_timeout;
-    let deadline = start + budget;
-    let slot = state.enter(deadline).await?;
-    let cancel = Cancel::with_deadline(deadline);
-    let _guard = CancelOnDrop(cancel.clone());
-    let metrics = state.metrics.clone();
-    let config = state.config.clone();
-    let handle = tokio::task::spawn_blocking(move || {
-        let _slot = slot;
-        let t0 = Instant::now();
-        let r = work(&body.bytes, &cancel);
-        drop(body);
-        let r = r.map_err(|e| cancelled_is_timeout(e, &config));
-        if let Ok((_, points, curves)) = &r {
-            metrics.record_fit(route, t0.elapsed().as_secs_f64(), *points, *curves);
-        }
-        r
-    });
-    match tokio::time::timeout_at(deadline.into(), handle).await {
-        Err(_) => Err(ApiError::timeout(budget.as_secs_f64())),
-        Ok(Err(join)) => {
-            tracing::error!(error = %join, route, "CPU work failed");
-            Err(ApiError::internal())
-        }
-        Ok(Ok(r)) => r.map(|(t, _, _)| t),
-    }
-}
-
 fn respond(content_type: &'static str, body: Vec<u8>) -> Response {
     let mut res = (StatusCode::OK, body).into_response();
     res.headers_mut()
@@ -146,72 +40,43 @@ fn respond(content_type: &'static str, body: Vec<u8>) -> Response {
     res
 }
 
-pub(super) async fn fit(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    q: QueryPairs,
-    body: Body,
-) -> Result<Response, ApiError> {
-    geo(state, GeoEndpoint::Fit, headers, q, body).await
+pub(super) async fn fit(req: PostRequest) -> Result<Response, ApiError> {
+    geo(req, GeoEndpoint::Fit).await
 }
 
-pub(super) async fn interpolate_geo(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    q: QueryPairs,
-    body: Body,
-) -> Result<Response, ApiError> {
-    geo(state, GeoEndpoint::Interpolate, headers, q, body).await
+pub(super) async fn interpolate_geo(req: PostRequest) -> Result<Response, ApiError> {
+    geo(req, GeoEndpoint::Interpolate).await
 }
 
-pub(super) async fn evaluate(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    q: QueryPairs,
-    body: Body,
-) -> Result<Response, ApiError> {
-    geo(state, GeoEndpoint::Evaluate, headers, q, body).await
+pub(super) async fn evaluate(req: PostRequest) -> Result<Response, ApiError> {
+    geo(req, GeoEndpoint::Evaluate).await
 }
 
-async fn geo(
-    state: AppState,
-    endpoint: GeoEndpoint,
-    headers: HeaderMap,
-    q: QueryPairs,
-    body: Body,
-) -> Result<Response, ApiError> {
-    let start = Instant::now();
-    let ((job, (topology, format)), body) = precheck(&state, body, || {
-        check_content_type(&headers, &[GEO_JSON, JSON])?;
-        let pairs = pairs(q)?;
-        let topo = if endpoint == GeoEndpoint::Fit {
-            query::fit_topology(&pairs)?
-        } else {
-            Default::default()
-        };
-        let job = query::geo_job(pairs, endpoint, &state.config.limits)?;
-        crate::earth::topology::validate(&job, topo.0, topo.1).map_err(ApiError::from)?;
-        Ok((job, topo))
-    })
-    .await?;
-    let held = read_body(&state, &headers, body, start).await?;
-    let config = state.config.clone();
+async fn geo(req: PostRequest, endpoint: GeoEndpoint) -> Result<Response, ApiError> {
+    let config = req.state().config.clone();
+    let ((job, (topology, format)), accepted) = req
+        .accept(&[GEO_JSON, JSON], |pairs| {
+            let topo = if endpoint == GeoEndpoint::Fit {
+                query::fit_topology(&pairs)?
+            } else {
+                Default::default()
+            };
+            let job = query::geo_job(pairs, endpoint, &config.limits)?;
+            crate::earth::topology::validate(&job, topo.0, topo.1).map_err(ApiError::from)?;
+            Ok((job, topo))
+        })
+        .await?;
     let shared = topology == crate::earth::topology::Topology::Shared;
-    let out = run_cpu(
-        &state,
-        endpoint.route(),
-        start,
-        held,
-        move |bytes, cancel| {
+    let out = accepted
+        .run(endpoint.route(), move |bytes, cancel| {
             let job = job.with_cancel(cancel.clone());
             if shared {
                 coverage_work(bytes, &job, format, &config)
             } else {
                 geo_work(bytes, endpoint, &job, &config, cancel)
             }
-        },
-    )
-    .await?;
+        })
+        .await?;
     let content_type = match format {
         crate::earth::topology::OutputFormat::TopoJson => JSON,
         crate::earth::topology::OutputFormat::GeoJson => GEO_JSON,
@@ -366,47 +231,31 @@ fn output_too_large(what: String, limit: usize) -> ApiError {
     .at("")
 }
 
-/// Where a points document keeps its points: `/points` in an object, the root in an array.
-fn points_base(v: &Value) -> &'static str {
-    if v.is_object() {
-        "/points"
-    } else {
-        ""
-    }
-}
-
+/// A math-core error on the points at `base` as a 422: the problem type by kind, the place
+/// from [`SphereError::site`] (an option as the query parameter, else a JSON pointer).
 fn sphere_error(e: SphereError, base: &str) -> ApiError {
-    let detail = e.to_string();
-    match e {
-        SphereError::InvalidDegree { .. } => {
-            ApiError::unprocessable("invalid-option", detail).param("degree")
+    let kind = match e {
+        SphereError::InvalidDegree { .. }
+        | SphereError::InvalidControlPointCount { .. }
+        | SphereError::InvalidShapeParameter { .. }
+        | SphereError::ShapeParameterCount { .. } => "invalid-option",
+        SphereError::InvalidParameters { .. } | SphereError::RepeatedPoint { .. } => {
+            "invalid-points"
         }
-        SphereError::InvalidControlPointCount { .. } => {
-            ApiError::unprocessable("invalid-option", detail).param("control_points")
+        SphereError::TooFewPoints { .. } | SphereError::AllPointsEqual { .. } => "too-few-points",
+        SphereError::Antipodal { .. } => "antipodal-points",
+        SphereError::NotInterpolated { .. } | SphereError::DegenerateArc { .. } => {
+            "not-interpolable"
         }
-        SphereError::InvalidParameters { .. } => {
-            ApiError::unprocessable("invalid-points", detail).at("/parameters")
-        }
-        SphereError::InvalidShapeParameter { field, .. } => {
-            ApiError::unprocessable("invalid-option", detail).param(field)
-        }
-        SphereError::TooFewPoints { .. } | SphereError::AllPointsEqual { .. } => {
-            ApiError::unprocessable("too-few-points", detail).at(base)
-        }
-        SphereError::Antipodal { .. } => {
-            ApiError::unprocessable("antipodal-points", detail).at(pointer_for(base, &e))
-        }
-        SphereError::RepeatedPoint { index, .. } => {
-            ApiError::unprocessable("invalid-points", detail).at(format!("{base}/{index}"))
-        }
-        SphereError::NotInterpolated { joint, .. } | SphereError::DegenerateArc { joint, .. } => {
-            ApiError::unprocessable("not-interpolable", detail).at(format!("{base}/{joint}"))
-        }
-        SphereError::Cancelled => ApiError::unprocessable("cancelled", detail),
-        SphereError::NonFinite { .. } => {
-            ApiError::unprocessable("non-finite", detail).at(pointer_for(base, &e))
-        }
-        _ => ApiError::unprocessable("unfittable", detail).at(pointer_for(base, &e)),
+        SphereError::Cancelled => "cancelled",
+        SphereError::NonFinite { .. } => "non-finite",
+        _ => "unfittable",
+    };
+    let error = ApiError::unprocessable(kind, e.to_string());
+    match e.site() {
+        InputSite::Field { name, .. } => error.param(name),
+        InputSite::Nothing => error,
+        site => error.at(pointer(site, "", base)),
     }
 }
 
@@ -423,79 +272,27 @@ fn check_point_count(n: usize, base: &str, config: &ServiceConfig) -> Result<(),
 
 /// The options of `/v1/sphere/fit`, checked against the limits.
 fn sphere_fit_options(
-    state: &AppState,
-    headers: &HeaderMap,
-    q: QueryPairs,
+    config: &ServiceConfig,
+    pairs: Vec<(String, String)>,
 ) -> Result<(crate::sphere::FitOptions, Option<f64>), ApiError> {
-    check_content_type(headers, &[JSON])?;
-    let p = Params::new(pairs(q)?, query::SPHERE_FIT_PARAMS)?;
+    let p = Params::new(pairs, query::SPHERE_FIT_PARAMS)?;
     let mut options = fit_options(&p, crate::sphere::FitOptions::default())?;
     options.target_max_error_rad = p.num("target_max_error_rad")?;
     let tolerance_rad = query::tolerance(&p, "tolerance_rad")?;
-    let limits = &state.config.limits;
-    let max_degree = crate::sphere::bspline::MAX_DEGREE;
-    if options.degree == 0 || options.degree > max_degree {
-        return Err(ApiError::unprocessable(
-            "invalid-option",
-            format!("degree {}: use 1 to {max_degree}", options.degree),
-        )
-        .param("degree"));
-    }
-    if let Some(n) = options.control_points {
-        if n < options.degree + 1 || n > limits.max_control_points {
-            return Err(ApiError::unprocessable(
-                "invalid-option",
-                format!(
-                    "{n} control points: use degree + 1 = {} to {} (the server's limit)",
-                    options.degree + 1,
-                    limits.max_control_points
-                ),
-            )
-            .param("control_points"));
-        }
-    }
-    if options.iterations > limits.max_iterations {
-        return Err(ApiError::unprocessable(
-            "invalid-option",
-            format!(
-                "{} iterations: use 0 to {} (the server's limit)",
-                options.iterations, limits.max_iterations
-            ),
-        )
-        .param("iterations"));
-    }
-    if let Some(t) = options.target_max_error_rad {
-        if !(t.is_finite() && t >= 0.0) {
-            return Err(ApiError::unprocessable(
-                "invalid-option",
-                format!("{t}: the target must be a number of radians >= 0"),
-            )
-            .param("target_max_error_rad"));
-        }
-    }
+    crate::earth::check_fit_options(&options, &config.limits)?;
     Ok((options, tolerance_rad))
 }
 
-pub(super) async fn sphere_fit(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    q: QueryPairs,
-    body: Body,
-) -> Result<Response, ApiError> {
-    let start = Instant::now();
-    let ((options, tolerance_rad), body) =
-        precheck(&state, body, || sphere_fit_options(&state, &headers, q)).await?;
-    let held = read_body(&state, &headers, body, start).await?;
-    let config = state.config.clone();
-    let out = run_cpu(
-        &state,
-        "/v1/sphere/fit",
-        start,
-        held,
-        move |bytes, cancel| {
+pub(super) async fn sphere_fit(req: PostRequest) -> Result<Response, ApiError> {
+    let config = req.state().config.clone();
+    let ((options, tolerance_rad), accepted) = req
+        .accept(&[JSON], |pairs| sphere_fit_options(&config, pairs))
+        .await?;
+    let out = accepted
+        .run("/v1/sphere/fit", move |bytes, cancel| {
             let v = parse_json(bytes)?;
-            let base = points_base(&v);
             let input = PointsInput::from_json(&v)?;
+            let base = input.points_pointer;
             check_point_count(input.points.len(), base, &config)?;
             if let Some(tolerance_rad) = tolerance_rad {
                 // As `sphere fit --tolerance-rad`: degree caps the degrees tried.
@@ -530,52 +327,40 @@ pub(super) async fn sphere_fit(
             let body = serde_json::to_vec(&FitDocument::from(&report))
                 .map_err(|_| ApiError::internal())?;
             Ok((body, input.points.len(), 1))
-        },
-    )
-    .await?;
+        })
+        .await?;
     Ok(respond(JSON, out))
 }
 
-pub(super) async fn sphere_interpolate(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    q: QueryPairs,
-    body: Body,
-) -> Result<Response, ApiError> {
-    let start = Instant::now();
-    let (options, body) = precheck(&state, body, || {
-        check_content_type(&headers, &[JSON])?;
-        let p = Params::new(pairs(q)?, query::SPHERE_INTERPOLATE_PARAMS)?;
-        let mut options = InterpolationOptions::default();
-        if let Some(b) = p.num("beta1")? {
-            options = options.with_beta1(b);
-        }
-        if let Some(b) = p.num("beta2")? {
-            options = options.with_beta2(b);
-        }
-        let settings = crate::earth::InterpolateSettings {
-            beta1: options.beta1[0],
-            beta2: options.beta2[0],
-        };
-        crate::earth::Job::interpolate(settings)
-            .validate()
-            .map_err(ApiError::from)?;
-        Ok(options)
-    })
-    .await?;
-    let held = read_body(&state, &headers, body, start).await?;
-    let config = state.config.clone();
-    let out = run_cpu(
-        &state,
-        "/v1/sphere/interpolate",
-        start,
-        held,
-        move |bytes, cancel| {
+pub(super) async fn sphere_interpolate(req: PostRequest) -> Result<Response, ApiError> {
+    let config = req.state().config.clone();
+    let (options, accepted) = req
+        .accept(&[JSON], |pairs| {
+            let p = Params::new(pairs, query::SPHERE_INTERPOLATE_PARAMS)?;
+            let mut options = InterpolationOptions::default();
+            if let Some(b) = p.num("beta1")? {
+                options = options.with_beta1(b);
+            }
+            if let Some(b) = p.num("beta2")? {
+                options = options.with_beta2(b);
+            }
+            let settings = crate::earth::InterpolateSettings {
+                beta1: options.beta1[0],
+                beta2: options.beta2[0],
+            };
+            crate::earth::Job::interpolate(settings)
+                .validate()
+                .map_err(ApiError::from)?;
+            Ok(options)
+        })
+        .await?;
+    let out = accepted
+        .run("/v1/sphere/interpolate", move |bytes, cancel| {
             let mut options = options;
             options.cancel = cancel.clone();
             let v = parse_json(bytes)?;
-            let base = points_base(&v);
             let input = PointsInput::from_json(&v)?;
+            let base = input.points_pointer;
             if v.get("parameters").is_some() {
                 return Err(ApiError::unprocessable(
                     "invalid-points",
@@ -588,26 +373,18 @@ pub(super) async fn sphere_interpolate(
             let body = serde_json::to_vec(&InterpolationDocument::from(&r))
                 .map_err(|_| ApiError::internal())?;
             Ok((body, input.points.len(), 1))
-        },
-    )
-    .await?;
+        })
+        .await?;
     Ok(respond(JSON, out))
 }
 
-pub(super) async fn sphere_evaluate(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    q: QueryPairs,
-    body: Body,
-) -> Result<Response, ApiError> {
-    let start = Instant::now();
-    let ((at, count), body) = precheck(&state, body, || {
-        sphere_evaluate_options(&state, &headers, q)
-    })
-    .await?;
-    let held = read_body(&state, &headers, body, start).await?;
-    let max_numbers = state.config.max_output_points.saturating_mul(3);
-    let out = run_cpu(&state, "/v1/sphere/evaluate", start, held, move |bytes, _| {
+pub(super) async fn sphere_evaluate(req: PostRequest) -> Result<Response, ApiError> {
+    let config = req.state().config.clone();
+    let max_numbers = config.max_output_points.saturating_mul(3);
+    let ((at, count), accepted) = req
+        .accept(&[JSON], |pairs| sphere_evaluate_options(&config, pairs))
+        .await?;
+    let out = accepted.run("/v1/sphere/evaluate", move |bytes, _| {
         let v = parse_json(bytes)?;
         let curve = curve_from_json(&v)
             .map_err(|e| ApiError::unprocessable("invalid-spline", e.message).at(e.pointer))?;
@@ -647,13 +424,11 @@ pub(super) async fn sphere_evaluate(
 /// The query of `/v1/sphere/evaluate`: explicit parameters, or the number of samples.
 #[allow(clippy::type_complexity)]
 fn sphere_evaluate_options(
-    state: &AppState,
-    headers: &HeaderMap,
-    q: QueryPairs,
+    config: &ServiceConfig,
+    pairs: Vec<(String, String)>,
 ) -> Result<(Option<Vec<f64>>, usize), ApiError> {
-    check_content_type(headers, &[JSON])?;
-    let p = Params::new(pairs(q)?, query::SPHERE_EVALUATE_PARAMS)?;
-    let max = state.config.limits.max_samples;
+    let p = Params::new(pairs, query::SPHERE_EVALUATE_PARAMS)?;
+    let max = config.limits.max_samples;
     let samples = p.int("samples")?;
     let at: Option<Vec<f64>> = match p.get::<String>("at", "a list")? {
         None => None,

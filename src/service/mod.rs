@@ -34,6 +34,7 @@ mod handlers;
 pub(crate) mod metrics;
 mod page;
 pub(crate) mod query;
+mod request;
 
 pub(crate) use error::ApiError;
 

@@ -186,17 +186,8 @@ fn output_options(p: &Params) -> Result<OutputOptions, ApiError> {
             precision: precision(p)?,
         });
     }
-    let sampling = match (samples, spacing) {
-        (Some(n), Some(s)) => Sampling::SpacingAndSamples {
-            spacing_m: s,
-            samples: n,
-        },
-        (Some(n), None) => Sampling::Samples(n),
-        (None, Some(s)) => Sampling::SpacingM(s),
-        (None, None) => Sampling::Auto,
-    };
     Ok(OutputOptions {
-        sampling,
+        sampling: Sampling::from_samples_and_spacing(samples, spacing),
         precision: precision(p)?,
     })
 }
@@ -309,18 +300,7 @@ pub fn tolerance(p: &Params, name: &'static str) -> Result<Option<f64>, ApiError
         )
         .param(name));
     }
-    if !(t.is_finite() && t > 0.0) {
-        let unit = if name == "tolerance_m" {
-            "metres"
-        } else {
-            "radians"
-        };
-        return Err(ApiError::unprocessable(
-            "invalid-option",
-            format!("{t}: the tolerance must be a positive number of {unit}"),
-        )
-        .param(name));
-    }
+    crate::earth::check_tolerance(name, t)?;
     Ok(Some(t))
 }
 

@@ -13,8 +13,6 @@ pub mod interpolate;
 pub(crate) mod linalg;
 
 // The flat module paths from before the folders, kept so code written against them compiles.
-#[doc(hidden)]
-pub use crate::document;
 pub use certify::{bounds, dense, two_way};
 pub use compress::{coding, optimal, simplify, tolerance};
 pub use curve::{bezier, bspline};
@@ -22,8 +20,6 @@ pub use fit::{knots, metrics};
 pub use geometry::point;
 pub use interpolate::beta;
 
-#[doc(hidden)]
-pub use crate::document::{BetaDocument, SplineDocument};
 pub use beta::{interpolate, BetaInterpolation, BetaSolver, InterpolationOptions};
 pub use bezier::SphericalBezier;
 pub use bspline::SphericalBSpline;
@@ -203,6 +199,84 @@ pub enum SphereError {
         /// Why it overflowed or underflowed.
         why: String,
     },
+}
+
+/// The input a [`SphereError`] is about ([`SphereError::site`]). Each front end words it its
+/// own way: the documents as a JSON pointer (`document::pointer`), the service as a
+/// pointer or a query parameter, the command line as a pointer or a flag.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum InputSite {
+    /// A named option of the operation or field of a curve (`degree`, `knots`,
+    /// `control_points`, `beta1`, `beta2`), and the value within it when it is a list.
+    Field {
+        /// The option's name, as the math core spells it.
+        name: &'static str,
+        /// The value within a list of them.
+        index: Option<usize>,
+    },
+    /// The data parameters (one per point).
+    Parameters,
+    /// One input point (of a curve: one control point), and the coordinate within it.
+    Point {
+        /// The point.
+        index: usize,
+        /// The coordinate, when one coordinate is at fault.
+        coord: Option<usize>,
+    },
+    /// The points as a whole: too few, all equal, or no curve found through them.
+    Points,
+    /// No input in particular: the work was cancelled.
+    Nothing,
+}
+
+impl SphereError {
+    /// The input this error is about: the one place that maps each variant to the value at
+    /// fault.
+    pub fn site(&self) -> InputSite {
+        match *self {
+            SphereError::DimensionTooSmall { index, .. }
+            | SphereError::DimensionMismatch { index, .. }
+            | SphereError::NotUnit { index, .. }
+            | SphereError::Antipodal { index, .. }
+            | SphereError::RepeatedPoint { index, .. } => InputSite::Point { index, coord: None },
+            SphereError::NotFinite { index, coord } => InputSite::Point {
+                index,
+                coord: Some(coord),
+            },
+            SphereError::NotInterpolated { joint, .. }
+            | SphereError::DegenerateArc { joint, .. } => InputSite::Point {
+                index: joint,
+                coord: None,
+            },
+            SphereError::InvalidDegree { .. } => InputSite::Field {
+                name: "degree",
+                index: None,
+            },
+            SphereError::InvalidKnots { .. } => InputSite::Field {
+                name: "knots",
+                index: None,
+            },
+            SphereError::InvalidControlPointCount { .. } => InputSite::Field {
+                name: "control_points",
+                index: None,
+            },
+            SphereError::InvalidShapeParameter { field, index, .. } => InputSite::Field {
+                name: field,
+                index: Some(index),
+            },
+            SphereError::ShapeParameterCount { field, .. } => InputSite::Field {
+                name: field,
+                index: None,
+            },
+            SphereError::InvalidParameters { .. } => InputSite::Parameters,
+            SphereError::TooFewPoints { .. }
+            | SphereError::AllPointsEqual { .. }
+            | SphereError::NoValidFit
+            | SphereError::NonFinite { .. } => InputSite::Points,
+            SphereError::Cancelled => InputSite::Nothing,
+        }
+    }
 }
 
 /// Entry points that exist only so `benches/` can compare implementation choices.

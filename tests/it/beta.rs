@@ -455,7 +455,7 @@ fn bezier_curves_of_any_degree_hit_their_ends_and_stay_on_the_sphere() {
 #[test]
 fn curve_documents_share_one_evaluation_interface() {
     let r = interpolate(&example1(), &InterpolationOptions::default()).unwrap();
-    let doc = serde_json::to_value(spherefit::sphere::BetaDocument::from(&r.spline)).unwrap();
+    let doc = serde_json::to_value(spherefit::document::BetaDocument::from(&r.spline)).unwrap();
     let curve = curve_from_json(&doc).unwrap();
     assert!(matches!(curve, AnyCurve::Beta(_)));
     let (ts, a) = curve.sample(31);

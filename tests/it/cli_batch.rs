@@ -5,7 +5,6 @@
 
 use crate::helpers::{fixture_path, run_spherefit};
 use serde_json::{json, Value};
-use spherefit::service::{router, AppState, ServiceConfig};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -77,28 +76,9 @@ fn lines(bytes: &[u8]) -> Vec<Value> {
 
 /// What the HTTP service answers to POST `uri` with `body`.
 fn service(uri: &str, body: &Value) -> Value {
-    use axum::body::Body;
-    use axum::http::{header, Request};
-    use tower::ServiceExt;
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    rt.block_on(async {
-        let app = router(AppState::new(ServiceConfig::default()));
-        let req = Request::builder()
-            .method("POST")
-            .uri(uri)
-            .header(header::CONTENT_TYPE, "application/geo+json")
-            .body(Body::from(serde_json::to_vec(body).unwrap()))
-            .unwrap();
-        let res = app.oneshot(req).await.unwrap();
-        assert_eq!(res.status(), 200, "{uri}");
-        let bytes = axum::body::to_bytes(res.into_body(), usize::MAX)
-            .await
-            .unwrap();
-        json_of(&bytes)
-    })
+    let (status, _, v) = crate::helpers::post_geo_oneshot(uri, body);
+    assert_eq!(status, 200, "{uri}: {v}");
+    v
 }
 
 fn read_fixture(name: &str) -> Vec<u8> {

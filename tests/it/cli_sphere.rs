@@ -4,7 +4,7 @@
 
 use crate::helpers::{angle, clamped_uniform_knots, fixture_path, norm, run_spherefit};
 use serde_json::{json, Value};
-use spherefit::sphere::document::{spline_from_json, PointsInput};
+use spherefit::document::{spline_from_json, PointsInput};
 use spherefit::sphere::{fit, FitOptions, KnotPlacement, Parameterization};
 use std::collections::BTreeSet;
 use std::process::Output;

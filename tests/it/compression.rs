@@ -1,11 +1,12 @@
-//! Issue 15 item 6, the compression bench's baselines on the fixture lines (the three US–Mexico
+//! The compression bench's baselines on the fixture lines (the three US–Mexico
 //! borders and the GPS tracks) at T in 1, 5, 25, 100 and 500 m: the optimal subset polyline
 //! meets T at every input point (recomputed here with a cross-track distance written apart
 //! from the library's), keeps the ends, never has more vertices than Douglas–Peucker, and
 //! cannot lose a vertex; the byte coding of it, of DP's polyline and of the fitted spline
 //! decodes to within the quantum.
 
-use crate::helpers::{read_fixture_json, EARTH_RADIUS_M};
+use crate::helpers::{angle as ang, distance_to_arc as dist_to_arc, read_fixture_json};
+use crate::helpers::{unit3 as unit, EARTH_RADIUS_M};
 use spherefit::sphere::coding::{
     decode_curve, encode_curve, encode_polyline, quantum_for_tolerance,
 };
@@ -14,45 +15,6 @@ use spherefit::sphere::simplify::douglas_peucker;
 use spherefit::sphere::{fit_to_tolerance, KnotRule, PointSet, ToleranceOptions};
 
 const TOLERANCES_M: [f64; 5] = [1.0, 5.0, 25.0, 100.0, 500.0];
-
-fn unit(lon_deg: f64, lat_deg: f64) -> [f64; 3] {
-    let (lon, lat) = (lon_deg.to_radians(), lat_deg.to_radians());
-    [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
-}
-
-fn ang(a: &[f64], b: &[f64]) -> f64 {
-    let c = (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
-    2.0 * (0.5 * c).min(1.0).asin()
-}
-
-fn cross(a: &[f64], b: &[f64]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot3(a: &[f64], b: &[f64]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Distance from q to the minor arc a-b on S^2: the pole n = a × b; q's foot is inside the arc
-/// when q is on the inner side of both end meridians, else the nearer end counts.
-fn dist_to_arc(q: &[f64], a: &[f64], b: &[f64]) -> f64 {
-    let n = cross(a, b);
-    let len = dot3(&n, &n).sqrt();
-    let ends = ang(q, a).min(ang(q, b));
-    if len < 1e-15 {
-        return ends;
-    }
-    let n = [n[0] / len, n[1] / len, n[2] / len];
-    if dot3(&cross(&n, a), q) >= 0.0 && dot3(&cross(b, &n), q) >= 0.0 {
-        dot3(&n, q).abs().min(1.0).asin().min(ends)
-    } else {
-        ends
-    }
-}
 
 /// The largest distance of a point from the segment of `kept` that spans it.
 fn worst(points: &PointSet, kept: &[usize]) -> f64 {

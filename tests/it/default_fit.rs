@@ -1,7 +1,8 @@
-//! Issue 15, the default fit: faithful on the 10m US–Mexico border, never worse than uniform
+//! The default fit: faithful on the 10m US–Mexico border, never worse than uniform
 //! knots with Gauss–Newton at the same count, and closed LineStrings come back as closed curves
 //! that are smooth across their seam.
 
+use crate::helpers::angle;
 use serde_json::{json, Value};
 use spherefit::earth::{lonlat_to_unit, process_feature, Job, EARTH_RADIUS_M};
 use spherefit::sphere::{FitOptions, KnotPlacement, Solver};
@@ -12,16 +13,6 @@ fn fit_feature(f: &Value, options: FitOptions) -> Value {
     process_feature(f, "/features/0", &Job::fit(options))
         .unwrap()
         .feature
-}
-
-fn angle(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    let c = [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ];
-    let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-    s.atan2(a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
 }
 
 fn unit(p: &Value) -> [f64; 3] {

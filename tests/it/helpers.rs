@@ -219,3 +219,86 @@ pub fn spawn_server(
     };
     (child, addr, lines)
 }
+
+/// Unit vector on S^2 for a longitude and latitude in degrees, as an array.
+pub fn unit3(lon_deg: f64, lat_deg: f64) -> [f64; 3] {
+    let (lon, lat) = (lon_deg.to_radians(), lat_deg.to_radians());
+    [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
+}
+
+/// SLERP on S^2 written out from the definition: the point at fraction `f` of the minor arc
+/// a-b (normalised linear interpolation below 1e-12 rad).
+pub fn slerp3(a: &[f64; 3], b: &[f64; 3], f: f64) -> [f64; 3] {
+    let th = angle(a, b);
+    let (wa, wb) = if th < 1e-12 {
+        (1.0 - f, f)
+    } else {
+        (((1.0 - f) * th).sin() / th.sin(), (f * th).sin() / th.sin())
+    };
+    let v: [f64; 3] = std::array::from_fn(|k| wa * a[k] + wb * b[k]);
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    v.map(|x| x / n)
+}
+
+/// Cross product in R^3.
+pub fn cross3(a: &[f64], b: &[f64]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Distance from q to the minor arc a-b on S^2 by the cross-track formula, written apart from
+/// the library's: the great circle's pole n = a × b; q projects inside the arc when it is on
+/// the inner side of both end meridians (n × a and b × n), else the nearer end counts.
+pub fn distance_to_arc(q: &[f64], a: &[f64], b: &[f64]) -> f64 {
+    let n = cross3(a, b);
+    let len = dot(&n, &n).sqrt();
+    let ends = angle(q, a).min(angle(q, b));
+    if len < 1e-15 {
+        return ends;
+    }
+    let n = [n[0] / len, n[1] / len, n[2] / len];
+    let inside = dot(&cross3(&n, a), q) >= 0.0 && dot(&cross3(b, &n), q) >= 0.0;
+    if inside {
+        dot(&n, q).abs().min(1.0).asin().min(ends)
+    } else {
+        ends
+    }
+}
+
+/// Posts `body` as GeoJSON to `uri` of a fresh router with the default configuration, through
+/// `oneshot`; returns the status, the content type and the body as JSON.
+pub fn post_geo_oneshot(uri: &str, body: &serde_json::Value) -> (u16, String, serde_json::Value) {
+    use axum::body::Body;
+    use axum::http::{header, Request};
+    use spherefit::service::{router, AppState, ServiceConfig};
+    use tower::ServiceExt;
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let app = router(AppState::new(ServiceConfig::default()));
+        let req = Request::builder()
+            .method("POST")
+            .uri(uri)
+            .header(header::CONTENT_TYPE, "application/geo+json")
+            .body(Body::from(serde_json::to_vec(body).unwrap()))
+            .unwrap();
+        let res = app.oneshot(req).await.unwrap();
+        let status = res.status().as_u16();
+        let ct = res
+            .headers()
+            .get(header::CONTENT_TYPE)
+            .map(|v| v.to_str().unwrap().to_string())
+            .unwrap_or_default();
+        let bytes = axum::body::to_bytes(res.into_body(), usize::MAX)
+            .await
+            .unwrap();
+        let v = serde_json::from_slice(&bytes)
+            .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(&bytes)));
+        (status, ct, v)
+    })
+}

@@ -1,4 +1,4 @@
-//! Hostile clients against a spawned release server (issue 10): each test reproduces one way a
+//! Hostile clients against a spawned release server: each test reproduces one way a
 //! small request used to crash, stall or starve the service, and asserts the fixed behaviour:
 //! status and problem+json with a pointer, bounded time, bounded memory of the server, slots
 //! freed after the budget, and `/health` answering fast throughout. Every server listens on

@@ -1,4 +1,4 @@
-//! Property tests on the parsers and option readers (issue 10, in place of cargo-fuzz, whose
+//! Property tests on the parsers and option readers (in place of cargo-fuzz, whose
 //! ASAN build takes 13 minutes here): GeoJSON documents, S^n points and spline documents, and
 //! the query parameters of the fit and evaluate routes, generated at random (structured values
 //! near the valid ones, plus noise). Nothing may panic, every error names where it is, and

@@ -3,6 +3,7 @@
 //! what is not fitted, and at least 20 kinds of bad input, each with its status, a
 //! problem+json body and a pointer (or parameter).
 
+use crate::helpers::{angle, slerp3 as slerp, unit3 as unit};
 use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
 use axum::Router;
@@ -91,37 +92,6 @@ fn ok(r: &Reply) -> Value {
 }
 
 // ---------- independent geometry, written here without the library ----------
-
-fn unit(lon: f64, lat: f64) -> [f64; 3] {
-    let (lon, lat) = (lon.to_radians(), lat.to_radians());
-    [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
-}
-
-fn angle(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    let c = [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ];
-    let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-    s.atan2(a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-}
-
-fn slerp(a: &[f64; 3], b: &[f64; 3], t: f64) -> [f64; 3] {
-    let th = angle(a, b);
-    let (wa, wb) = if th < 1e-12 {
-        (1.0 - t, t)
-    } else {
-        (((1.0 - t) * th).sin() / th.sin(), (t * th).sin() / th.sin())
-    };
-    let v = [
-        wa * a[0] + wb * b[0],
-        wa * a[1] + wb * b[1],
-        wa * a[2] + wb * b[2],
-    ];
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
-}
 
 /// de Boor's algorithm with SLERP, from the spline document in lon/lat.
 fn eval_spline(doc: &Value, t: f64) -> [f64; 3] {
@@ -783,12 +753,11 @@ async fn sphere_endpoints_take_the_cli_documents() {
     let r = post_json(&app, "/v1/sphere/fit?control_points=4", &pts).await;
     assert_eq!(r.content_type(), "application/json");
     let doc = ok(&r);
-    let parsed: spherefit::sphere::document::FitDocument =
-        serde_json::from_value(doc.clone()).unwrap();
+    let parsed: spherefit::document::FitDocument = serde_json::from_value(doc.clone()).unwrap();
     assert_eq!(parsed.spline.control_points.len(), 4);
     assert_eq!(parsed.parameters.len(), 6);
     let ev = ok(&post_json(&app, "/v1/sphere/evaluate?samples=7", &doc).await);
-    let samples: spherefit::sphere::document::SamplesDocument = serde_json::from_value(ev).unwrap();
+    let samples: spherefit::document::SamplesDocument = serde_json::from_value(ev).unwrap();
     assert_eq!(samples.points.len(), 7);
     assert!((samples.points[0][0] - parsed.spline.control_points[0][0]).abs() < 1e-12);
     let at = ok(&post_json(&app, "/v1/sphere/evaluate?at=0,0.5,1", &doc["spline"]).await);

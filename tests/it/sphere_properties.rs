@@ -17,7 +17,7 @@ use spherefit::sphere::metrics::measure;
 use spherefit::sphere::point::{angle_between, exp_map, log_map, slerp, PointSet};
 use spherefit::sphere::{fit, FitOptions, KnotPlacement, SphericalBSpline, SphericalCurve};
 
-/// Rounding-level tolerance the issue asks for (norms, endpoint hits, `Σ D_i P_i = C`).
+/// Rounding-level tolerance (norms, endpoint hits, `Σ D_i P_i = C`): about 4500 ulps of 1.0.
 const TOL: f64 = 1e-12;
 
 /// A uniformly random unit vector in R^dim.

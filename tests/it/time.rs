@@ -5,40 +5,9 @@
 //! output (property and 4th coordinate), and bad time arrays as 422 with a pointer (HTTP) and a
 //! non-zero exit with the pointer (CLI).
 
-use crate::helpers::{read_fixture_json, run_spherefit, EARTH_RADIUS_M};
-use axum::body::Body;
-use axum::http::{header, Request};
+use crate::helpers::{angle, post_geo_oneshot as post, read_fixture_json, run_spherefit};
+use crate::helpers::{slerp3 as slerp, unit3 as unit, EARTH_RADIUS_M};
 use serde_json::{json, Value};
-use spherefit::service::{router, AppState, ServiceConfig};
-use tower::ServiceExt;
-
-/// Posts `body` to `uri` and returns (status, content type, JSON body).
-fn post(uri: &str, body: &Value) -> (u16, String, Value) {
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    rt.block_on(async {
-        let app = router(AppState::new(ServiceConfig::default()));
-        let req = Request::builder()
-            .method("POST")
-            .uri(uri)
-            .header(header::CONTENT_TYPE, "application/geo+json")
-            .body(Body::from(serde_json::to_vec(body).unwrap()))
-            .unwrap();
-        let res = app.oneshot(req).await.unwrap();
-        let status = res.status().as_u16();
-        let ct = res
-            .headers()
-            .get(header::CONTENT_TYPE)
-            .map(|v| v.to_str().unwrap().to_string())
-            .unwrap_or_default();
-        let bytes = axum::body::to_bytes(res.into_body(), usize::MAX)
-            .await
-            .unwrap();
-        (status, ct, serde_json::from_slice(&bytes).unwrap())
-    })
-}
 
 fn post_ok(uri: &str, body: &Value) -> Value {
     let (status, _, v) = post(uri, body);
@@ -50,38 +19,11 @@ fn post_ok(uri: &str, body: &Value) -> Value {
 // An independent evaluation: de Boor's algorithm with SLERP for every affine step (GLS-PIA
 // §3.2), written out here from the definition.
 
-fn unit(lon_deg: f64, lat_deg: f64) -> [f64; 3] {
-    let (l, p) = (lon_deg.to_radians(), lat_deg.to_radians());
-    [p.cos() * l.cos(), p.cos() * l.sin(), p.sin()]
-}
-
 fn lonlat(v: &[f64; 3]) -> (f64, f64) {
     (
         v[1].atan2(v[0]).to_degrees(),
         v[2].clamp(-1.0, 1.0).asin().to_degrees(),
     )
-}
-
-fn angle(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    let c = [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ];
-    let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-    s.atan2(a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-}
-
-fn slerp(a: &[f64; 3], b: &[f64; 3], f: f64) -> [f64; 3] {
-    let th = angle(a, b);
-    let (wa, wb) = if th < 1e-12 {
-        (1.0 - f, f)
-    } else {
-        (((1.0 - f) * th).sin() / th.sin(), (f * th).sin() / th.sin())
-    };
-    let v: [f64; 3] = std::array::from_fn(|k| wa * a[k] + wb * b[k]);
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    v.map(|x| x / n)
 }
 
 struct Spline {

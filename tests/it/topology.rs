@@ -5,6 +5,7 @@
 //! the same segments bit for bit, every input vertex within the tolerance of its feature's
 //! output boundary, geo's validity checks, and GDAL reading the TopoJSON.
 
+use crate::helpers::distance_to_arc as to_segment;
 use crate::helpers::{fixture_path, read_fixture_json, run_spherefit, EARTH_RADIUS_M};
 use geo::{Area, BooleanOps, Contains, Coord, LineString, MultiPolygon, Polygon, Validation};
 use serde_json::{json, Value};
@@ -60,42 +61,6 @@ fn polygons(g: &Value) -> Vec<Vec<Ring>> {
 fn unit(p: &[f64; 2]) -> [f64; 3] {
     let (lo, la) = (p[0].to_radians(), p[1].to_radians());
     [la.cos() * lo.cos(), la.cos() * lo.sin(), la.sin()]
-}
-
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn angle(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    let c = cross(a, b);
-    dot(&c, &c).sqrt().atan2(dot(a, b))
-}
-
-/// Geodesic distance (radians) from `p` to the great-circle segment `a`-`b`.
-fn to_segment(p: &[f64; 3], a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    let n = cross(a, b);
-    let len = dot(&n, &n).sqrt();
-    let ends = angle(p, a).min(angle(p, b));
-    if len < 1e-15 {
-        return ends;
-    }
-    let n = [n[0] / len, n[1] / len, n[2] / len];
-    let s = dot(&n, p);
-    // The foot point on the great circle, and whether it lies between a and b.
-    let f = [p[0] - s * n[0], p[1] - s * n[1], p[2] - s * n[2]];
-    if dot(&cross(a, &f), &n) >= 0.0 && dot(&cross(&f, b), &n) >= 0.0 {
-        s.clamp(-1.0, 1.0).asin().abs()
-    } else {
-        ends
-    }
 }
 
 /// Largest distance (metres) from any input vertex of a feature to that feature's output

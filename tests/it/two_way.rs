@@ -1,31 +1,16 @@
-//! Issue 15: fits that stay on the line. For T in 1, 5, 25, 100 and 500 m, on the fixture lines
+//! Fits that stay on the line. For T in 1, 5, 25, 100 and 500 m, on the fixture lines
 //! (the three US–Mexico borders, the GPS tracks) and on synthetic ones (a closed ring, a noisy
 //! 1 Hz track with jumps, a border-like line of corners and long straight stretches): whenever
 //! `tolerance_met` is true, a two-way distance recomputed here by brute force (dense samples of
 //! every curve piece and every input segment, written apart from the library's certified
 //! method) is within T, and the dense output is within its reported deviation of the curve.
 
-use crate::helpers::{read_fixture_json, EARTH_RADIUS_M};
+use crate::helpers::{angle as ang, distance_to_arc as dist_to_arc, read_fixture_json};
+use crate::helpers::{unit3 as unit, EARTH_RADIUS_M};
 use spherefit::sphere::dense::sample_within;
 use spherefit::sphere::{fit_to_tolerance, PointSet, SphericalBSpline, ToleranceOptions};
 
 const TOLERANCES_M: [f64; 5] = [1.0, 5.0, 25.0, 100.0, 500.0];
-
-fn unit(lon_deg: f64, lat_deg: f64) -> [f64; 3] {
-    let (lon, lat) = (lon_deg.to_radians(), lat_deg.to_radians());
-    [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
-}
-
-/// Angle between unit vectors by the half-chord formula.
-fn ang(a: &[f64], b: &[f64]) -> f64 {
-    let c = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt();
-    2.0 * (0.5 * c).min(1.0).asin()
-}
 
 /// Point at fraction f of the minor arc a-b (normalised linear interpolation of the chord,
 /// then moved to the arc's angle: exact SLERP written out).
@@ -36,37 +21,6 @@ fn arc_point(a: &[f64], b: &[f64], f: f64) -> Vec<f64> {
     }
     let (w0, w1) = (((1.0 - f) * th).sin() / th.sin(), (f * th).sin() / th.sin());
     a.iter().zip(b).map(|(x, y)| w0 * x + w1 * y).collect()
-}
-
-fn cross(a: &[f64], b: &[f64]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot3(a: &[f64], b: &[f64]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Distance from q to the minor arc a-b on S^2 by the cross-track formula: the great circle's
-/// pole n = a × b; q projects inside the arc when it is on the inner side of both end
-/// meridians (n × a and b × n), else the nearer end counts.
-fn dist_to_arc(q: &[f64], a: &[f64], b: &[f64]) -> f64 {
-    let n = cross(a, b);
-    let len = dot3(&n, &n).sqrt();
-    let ends = ang(q, a).min(ang(q, b));
-    if len < 1e-15 {
-        return ends;
-    }
-    let n = [n[0] / len, n[1] / len, n[2] / len];
-    let inside = dot3(&cross(&n, a), q) >= 0.0 && dot3(&cross(b, &n), q) >= 0.0;
-    if inside {
-        (dot3(&n, q).abs().min(1.0).asin()).min(ends)
-    } else {
-        ends
-    }
 }
 
 /// Brute-force two-way distance with the ordered matching: vertex errors, then for each input

@@ -5,7 +5,7 @@ use super::input::Format;
 use super::{job, stderr_line, BatchArgs, FitArgs};
 use crate::cli::Failure;
 use crate::earth::topology::{fit_coverage, validate, OutputFormat, Topology};
-use crate::earth::Document;
+use crate::earth::{Document, Problem};
 use clap::{Args, ValueEnum};
 use std::io::{self, Read, Write};
 use std::time::Instant;
@@ -68,23 +68,16 @@ pub(super) fn fit(a: FitArgs) -> Result<(), Failure> {
             )))
             }
         };
-    validate(&job, Topology::Shared, format).map_err(|e| {
-        Failure::input(format!(
-            "--topology shared: {}",
-            e.problem
-                .to_string()
-                .replace("tolerance_m", "--tolerance-m")
-        ))
+    validate(&job, Topology::Shared, format).map_err(|e| match e.problem {
+        Problem::RequiresOption {
+            requires, reason, ..
+        } => Failure::input(format!(
+            "--topology shared: {reason}: give {} too",
+            crate::cli::flag(requires)
+        )),
+        other => Failure::input(format!("--topology shared: {other}")),
     })?;
-    if let Some(n) = batch.threads {
-        if n == 0 {
-            return Err(Failure::input("--threads: use 1 or more"));
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .map_err(|e| Failure::input(format!("--threads: {e}")))?;
-    }
+    super::set_threads(batch.threads)?;
     if batch.inputs.len() > 1 {
         return Err(Failure::input(
             "--topology shared fits one coverage: give one input (merge the files first)",

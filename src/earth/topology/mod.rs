@@ -40,7 +40,7 @@ pub const TIGHTEN_ROUNDS: usize = 3;
 
 use super::curve::{
     compression_ratio, prepare_line, round_spline, round_up_m, rounding_bound_rad, sampling_start,
-    sphere_error,
+    sphere_error, tolerance_target_rad,
 };
 use super::features::{process_feature, Document, FeatureStats, Source};
 use super::lonlat::{m_to_rad, rad_to_m, round_to, unit_to_lonlat};
@@ -105,7 +105,7 @@ impl FromStr for OutputFormat {
 /// TopoJSON output needs shared topology.
 ///
 /// # Errors
-/// [`Problem::InvalidOption`] naming `topology` or `format`.
+/// [`Problem::RequiresOption`] or [`Problem::InvalidOption`] naming `topology` or `format`.
 pub fn validate(job: &Job, topology: Topology, format: OutputFormat) -> Result<(), EarthError> {
     let bad = |option: &'static str, message: &str| {
         Err(EarthError::new(
@@ -117,21 +117,25 @@ pub fn validate(job: &Job, topology: Topology, format: OutputFormat) -> Result<(
         ))
     };
     if topology == Topology::Shared && !matches!(job.operation, Operation::FitToTolerance { .. }) {
-        return bad(
-            "topology",
-            "shared topology fits every border to a tolerance: give tolerance_m too",
-        );
+        return Err(EarthError::new(
+            "",
+            Problem::RequiresOption {
+                option: "topology",
+                requires: "tolerance_m",
+                reason: "shared topology fits every border to a tolerance",
+            },
+        ));
     }
     if topology == Topology::Shared && job.time.fit_in_time.is_some() {
         return bad(
             "topology",
-            "shared topology fits polygon rings, which carry no times: drop parameterization=time, time_property and spacing_s",
+            "shared topology fits polygon rings, which carry no times: drop parameterization time, time_property and spacing_s",
         );
     }
     if format == OutputFormat::TopoJson && topology != Topology::Shared {
         return bad(
             "format",
-            "TopoJSON output is made of shared arcs: give topology=shared too",
+            "TopoJSON output is made of shared arcs: give topology shared too",
         );
     }
     Ok(())
@@ -1016,15 +1020,8 @@ fn fit_arc(
     let points = PointSet::try_from_rows(&rows).map_err(|e| sphere_error(e, "", &[]))?;
     let output = &job.output;
     let bound = rounding_bound_rad(output.precision);
-    let mut target = if tol_rad > 3.0 * bound {
-        tol_rad - 1.5 * bound
-    } else {
-        tol_rad
-    };
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
-    if target - dense_margin > 0.5 * tol_rad {
-        target -= dense_margin;
-    }
+    let mut target = tolerance_target_rad(tol_rad, output.precision);
     let mut topts = ToleranceOptions {
         parameterization,
         max_control_points: Some(points.len()),
@@ -1299,8 +1296,9 @@ mod tests {
         let e = validate(&fit, Topology::Shared, OutputFormat::GeoJson).unwrap_err();
         assert!(matches!(
             e.problem,
-            Problem::InvalidOption {
+            Problem::RequiresOption {
                 option: "topology",
+                requires: "tolerance_m",
                 ..
             }
         ));

@@ -492,18 +492,38 @@ fn gauss_newton_corrected(
 /// GLS-PIA with the parameters moved to their foot points every [`CORRECTION_INTERVAL`]
 /// iterations. Returns the (curve, parameters) pair with the lowest RMS error measured.
 fn gls_pia_corrected(
+    spline: SphericalBSpline,
+    points: &PointSet,
+    params: Vec<f64>,
+    options: &FitOptions,
+) -> FitReport {
+    gls_pia_loop(spline, points, params, options, Some(CORRECTION_INTERVAL))
+}
+
+/// Runs GLS-PIA from `spline` (its knots are kept) on points with known parameters.
+pub fn gls_pia(
+    spline: SphericalBSpline,
+    points: &PointSet,
+    params: Vec<f64>,
+    options: &FitOptions,
+) -> FitReport {
+    gls_pia_loop(spline, points, params, options, None)
+}
+
+/// The GLS-PIA iterations: measure, keep the best curve by RMS error, stop on the target, on
+/// stagnation, when cancelled or out of iterations, else move every control point. With
+/// `correct_every`, the parameters move to their foot points every that many iterations (and
+/// the best curve is kept with its parameters); without, they stay as given.
+fn gls_pia_loop(
     mut spline: SphericalBSpline,
     points: &PointSet,
     mut params: Vec<f64>,
     options: &FitOptions,
+    correct_every: Option<usize>,
 ) -> FitReport {
-    let global_mu = match options.step {
-        StepRule::DengLin => None,
-        StepRule::Global => Some(1.0 / largest_eigenvalue(&spline, &params)),
-        StepRule::Constant(mu) => Some(mu),
-    };
+    let global_mu = global_step(options.step, &spline, &params);
     let mut history = Vec::with_capacity(options.iterations + 1);
-    let mut best: Option<(SphericalBSpline, Vec<f64>, ErrorMetrics)> = None;
+    let mut best: Option<(SphericalBSpline, Option<Vec<f64>>, ErrorMetrics)> = None;
     let mut iterations = 0;
     let mut converged = false;
     let mut last_rms = f64::INFINITY;
@@ -523,7 +543,8 @@ fn gls_pia_corrected(
             .as_ref()
             .is_none_or(|(_, _, b)| m.rms_error_rad < b.rms_error_rad)
         {
-            best = Some((spline.clone(), params.clone(), m));
+            // Parameters are copied only when they can change.
+            best = Some((spline.clone(), correct_every.map(|_| params.clone()), m));
         }
         let target_met = options
             .target_max_error_rad
@@ -540,16 +561,16 @@ fn gls_pia_corrected(
         last_rms = m.rms_error_rad;
         apply_moves(&mut spline, &pass.moves, &pass.weights, global_mu);
         iterations += 1;
-        if iterations % CORRECTION_INTERVAL == 0 {
+        if correct_every.is_some_and(|k| iterations % k == 0) {
             super::footpoint::correct_parameters(&spline, points, &mut params);
             // The loss changed with the parameters: the next drop is not a stagnation test.
             last_rms = f64::INFINITY;
         }
     }
-    let (spline, parameters, metrics) = best.expect("at least one pass ran");
+    let (spline, best_params, metrics) = best.expect("at least one pass ran");
     FitReport {
         spline,
-        parameters,
+        parameters: best_params.unwrap_or(params),
         metrics,
         iterations,
         converged,
@@ -557,65 +578,13 @@ fn gls_pia_corrected(
     }
 }
 
-/// Runs GLS-PIA from `spline` (its knots are kept) on points with known parameters.
-pub fn gls_pia(
-    mut spline: SphericalBSpline,
-    points: &PointSet,
-    params: Vec<f64>,
-    options: &FitOptions,
-) -> FitReport {
-    let global_mu = match options.step {
+/// The one step size of [`StepRule::Global`] (1/λmax of AᵀA) or a constant step; `None` for
+/// Deng and Lin's step per control point.
+fn global_step(step: StepRule, spline: &SphericalBSpline, params: &[f64]) -> Option<f64> {
+    match step {
         StepRule::DengLin => None,
-        StepRule::Global => Some(1.0 / largest_eigenvalue(&spline, &params)),
+        StepRule::Global => Some(1.0 / largest_eigenvalue(spline, params)),
         StepRule::Constant(mu) => Some(mu),
-    };
-    let mut history = Vec::with_capacity(options.iterations + 1);
-    let mut best: Option<(SphericalBSpline, ErrorMetrics)> = None;
-    let mut iterations = 0;
-    let mut converged = false;
-    let mut last_rms = f64::INFINITY;
-    loop {
-        let mode = if iterations < options.iterations {
-            PassMode::Accumulate
-        } else {
-            PassMode::Measure
-        };
-        let pass = run_pass(&spline, points, &params, mode);
-        let m = pass.errors.metrics();
-        history.push(IterationError {
-            max_error_rad: m.max_error_rad,
-            mean_error_rad: m.mean_error_rad,
-        });
-        if best
-            .as_ref()
-            .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
-        {
-            best = Some((spline.clone(), m));
-        }
-        let target_met = options
-            .target_max_error_rad
-            .is_some_and(|e| m.max_error_rad <= e);
-        let stagnated =
-            iterations > 0 && last_rms - m.rms_error_rad <= options.stagnation * last_rms;
-        if target_met || stagnated || m.max_error_rad == 0.0 {
-            converged = true;
-            break;
-        }
-        if mode == PassMode::Measure || options.cancel.is_cancelled() {
-            break;
-        }
-        last_rms = m.rms_error_rad;
-        apply_moves(&mut spline, &pass.moves, &pass.weights, global_mu);
-        iterations += 1;
-    }
-    let (spline, metrics) = best.expect("at least one pass ran");
-    FitReport {
-        spline,
-        parameters: params,
-        metrics,
-        iterations,
-        converged,
-        history,
     }
 }
 
@@ -628,11 +597,7 @@ pub fn gls_pia_iteration(
     params: &[f64],
     step: StepRule,
 ) -> ErrorMetrics {
-    let global_mu = match step {
-        StepRule::DengLin => None,
-        StepRule::Global => Some(1.0 / largest_eigenvalue(spline, params)),
-        StepRule::Constant(mu) => Some(mu),
-    };
+    let global_mu = global_step(step, spline, params);
     let pass = run_pass(spline, points, params, PassMode::Accumulate);
     apply_moves(spline, &pass.moves, &pass.weights, global_mu);
     pass.errors.metrics()

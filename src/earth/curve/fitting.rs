@@ -1,0 +1,541 @@
+//! Fitting one line: a B-spline by GLS-PIA or Gauss–Newton at a control-point count
+//! ([`fit_line`]) or to a tolerance in metres ([`fit_line_to_tolerance`]), rounded to the
+//! output precision and measured as returned.
+
+use super::*;
+
+/// Without `control_points`, a fit at a quarter of the distinct positions is refitted at half
+/// of them when its max error exceeds this share of the median step between positions. On the
+/// 10m borders of the README's "Default fit" table a quarter leaves 1.8–1.9 km on the
+/// Canada–USA border (median steps 3.8 and 6.2 km), half leaves at most 1 km everywhere; dense
+/// smooth tracks keep a quarter.
+pub const AUTO_COUNT_STEP_SHARE: f64 = 0.25;
+
+/// The faithful default fit inserts points into segments longer than this many median steps
+/// of the line (so no step is longer) ...
+pub const DENSIFY_STEP_SHARE: f64 = 3.0;
+
+/// ... up to this many times the line's distinct positions in all.
+pub const DENSIFY_MAX_FACTOR: usize = 4;
+
+/// Fits one line (or ring, when `closed`) given as a GeoJSON coordinates array.
+///
+/// With `time`, the line is fitted as position against time: each position's parameter is its
+/// time mapped to [0, 1] (never moved), so the error reported at a position is its
+/// synchronized distance; long segments get no points inserted (nothing says where the track
+/// was between its times), and a line that returns to its start stays open. A curve in time
+/// that strays from the line ([`TIME_STRAY_SHARE`]) is refitted with GLS-PIA.
+///
+/// # Errors
+/// Invalid positions or times, an open or short ring, fewer than 2 distinct positions,
+/// antipodal neighbours, more control points than distinct positions, or output over the
+/// limits.
+#[allow(clippy::too_many_arguments)]
+pub fn fit_line(
+    coords: &Value,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    options: &FitOptions,
+    output: &OutputOptions,
+    limits: &Limits,
+    time: Option<&LineTimeInput<'_>>,
+) -> Result<CurveOutput, EarthError> {
+    let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
+    let closed = timed.is_none() && (closed || is_closed_line(&distinct));
+    let given = timed.as_ref().map(|t| t.params.as_slice());
+    let m = distinct.len();
+    let degree = options.degree.min(m - 1);
+    let cap = limits.max_control_points.max(degree + 1);
+    let control_points = match options.control_points {
+        Some(n) if n > m => {
+            return Err(EarthError::new(
+                pointer,
+                Problem::TooManyControlPoints {
+                    control_points: n,
+                    distinct: m,
+                },
+            ))
+        }
+        Some(n) => n,
+        None => default_control_points(m, degree).min(cap),
+    };
+    let points = distinct.point_set();
+    let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
+    // The faithful default fits the line, not only its vertices: long segments get points
+    // along them (see `sphere::geometry::densify`), and the vertices' parameters are read off
+    // the fit. The paper's placements fit the vertices as given.
+    let (fit_points, at) = if options.knots == KnotPlacement::Adaptive && timed.is_none() {
+        densify(
+            &points,
+            DENSIFY_STEP_SHARE * median_step_rad(&distinct),
+            DENSIFY_MAX_FACTOR * m,
+        )
+        .map_err(fit_err)?
+    } else {
+        (points.clone(), (0..m).collect())
+    };
+    let run_with = |n_ctrl: usize, solver: crate::sphere::Solver| {
+        let mut opts = options
+            .clone()
+            .with_degree(degree)
+            .with_control_points(n_ctrl);
+        opts.solver = solver;
+        if closed {
+            fit_closed(&fit_points, &opts)
+        } else {
+            fit(&fit_points, given, &opts)
+        }
+    };
+    let run = |n_ctrl: usize| run_with(n_ctrl, options.solver);
+    let mut r = run(control_points).map_err(fit_err)?;
+    if options.control_points.is_none() {
+        // The count from the data: a quarter of the positions, or half of them when a quarter
+        // leaves a position farther from the curve than a quarter of the line's median step
+        // (the curve should follow the line at a finer scale than the line is sampled).
+        let more = m.div_ceil(2).max(degree + 1).min(cap);
+        if more > control_points
+            && r.metrics.max_error_rad > AUTO_COUNT_STEP_SHARE * median_step_rad(&distinct)
+        {
+            let r2 = run(more).map_err(fit_err)?;
+            if r2.metrics.max_error_rad < r.metrics.max_error_rad {
+                r = r2;
+            }
+        }
+    }
+    // Rounded, and judged against the whole line both ways (certified).
+    let measured = |r: crate::sphere::FitReport| -> Result<_, EarthError> {
+        let r_max_rad = r.metrics.max_error_rad;
+        let params: Vec<f64> = at.iter().map(|&k| r.parameters[k]).collect();
+        let n_ctrl = r.spline.control_points().len();
+        let (spline, control_ll) = round_spline(&r.spline, output.precision).map_err(fit_err)?;
+        let tw = two_way_distance(
+            &spline,
+            &points,
+            &params,
+            &TwoWayOptions::default()
+                .with_precision_rad(
+                    (REPORT_TWO_WAY_PRECISION * r_max_rad)
+                        .max(REPORT_TWO_WAY_LENGTH_SHARE * polyline_length(&points))
+                        .max(m_to_rad(0.5)),
+                )
+                .with_max_evaluations(REPORT_TWO_WAY_EVALUATIONS + 64 * points.len()),
+        )
+        .map_err(fit_err)?;
+        Ok((
+            spline,
+            control_ll,
+            params,
+            r.iterations,
+            r.converged,
+            tw,
+            r_max_rad,
+            n_ctrl,
+        ))
+    };
+    let mut m_best = measured(r)?;
+    // In time, spans between positions far apart in time have little data, and Gauss-Newton's
+    // least squares can send the curve far from the line there while every position stays
+    // close (a fixture track went 160 km off). When the curve strays from the line more than
+    // TIME_STRAY_SHARE times its max error, GLS-PIA (which moves control points only towards
+    // the data) is tried with the same control points, and the curve nearer the line kept.
+    if timed.is_some()
+        && options.solver != crate::sphere::Solver::GlsPia
+        && m_best.5.upper_rad > TIME_STRAY_SHARE * m_best.6.max(m_to_rad(1.0))
+    {
+        let alt = measured(run_with(m_best.7, crate::sphere::Solver::GlsPia).map_err(fit_err)?)?;
+        if alt.5.upper_rad < m_best.5.upper_rad {
+            m_best = alt;
+        }
+    }
+    let (spline, control_ll, params, iterations, converged, tw, _, _) = m_best;
+    let input_len = polyline_length(&points);
+    let (mut out, _) = finish_fit(
+        Fitted {
+            line: &line,
+            distinct: &distinct,
+            points: &points,
+            spline,
+            control_ll,
+            params,
+            iterations,
+            converged,
+            knots: serde_json::to_value(options.knots).expect("enum serialises"),
+            parameterization: options.parameterization,
+            sampling_aim_rad: None,
+            time: timed.as_ref(),
+        },
+        pointer,
+        path,
+        closed,
+        output,
+        limits,
+    )?;
+    let f = &mut out.report.fields;
+    f.insert(
+        "two_way_distance_m".into(),
+        json!(round_up_m(rad_to_m(tw.upper_rad))),
+    );
+    let ratio = if input_len > 0.0 {
+        tw.curve_length_rad / input_len
+    } else {
+        1.0
+    };
+    f.insert("curve_length_ratio".into(), json!(round_to(ratio, 4)));
+    Ok(out)
+}
+
+/// A fitted curve (control points already rounded) and what it was fitted to.
+pub(super) struct Fitted<'a> {
+    line: &'a LinePositions,
+    distinct: &'a DistinctPositions,
+    points: &'a PointSet,
+    spline: SphericalBSpline,
+    control_ll: Vec<[f64; 2]>,
+    params: Vec<f64>,
+    iterations: usize,
+    converged: bool,
+    knots: Value,
+    parameterization: crate::sphere::Parameterization,
+    /// What automatic dense sampling aims for; by default a share of the max error.
+    sampling_aim_rad: Option<f64>,
+    /// The line's times, for a fit in time.
+    time: Option<&'a Timed>,
+}
+
+/// Measures a fitted curve as returned, samples it and writes its `properties.fit` fields.
+/// Also returns the max error in radians.
+pub(super) fn finish_fit(
+    f: Fitted<'_>,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    output: &OutputOptions,
+    limits: &Limits,
+) -> Result<(CurveOutput, f64), EarthError> {
+    let Fitted {
+        line,
+        distinct,
+        points,
+        spline,
+        control_ll,
+        params,
+        iterations,
+        converged,
+        knots,
+        parameterization,
+        sampling_aim_rad,
+        time,
+    } = f;
+    let control_points = spline.control_points().len();
+    // Errors of the spline as returned, each distinct position counted once per input copy.
+    let errs = pointwise_errors(&spline, points, &params);
+    let (mut max_rad, mut sum_rad, mut sq_rad) = (0.0f64, 0.0, 0.0);
+    for (e, &k) in errs.iter().zip(&distinct.multiplicity) {
+        max_rad = max_rad.max(*e);
+        sum_rad += e * k as f64;
+        sq_rad += e * e * k as f64;
+    }
+    let n_in = line.points.len();
+    let dense = sample_curve(
+        &spline,
+        output,
+        closed,
+        sampling_aim_rad.unwrap_or_else(|| auto_tolerance_rad(max_rad)),
+        sampling_start(control_points),
+        limits,
+        time.map(|t| &t.map),
+    )
+    .map_err(|e| EarthError::new(pointer, e.problem))?;
+    let (points_out, alts) = finish_dense(&dense, closed, &params, &distinct.alts);
+    let dense_times = time.map(|t| DenseTimes {
+        unix_s: dense.params.iter().map(|&u| t.map.time(u)).collect(),
+        format: t.map.format,
+        origin: t.origin.clone(),
+    });
+
+    let spline_doc = json!({
+        "degree": spline.degree(),
+        "knots": spline.knots(),
+        "control_points": control_ll,
+    });
+    let mut fields = Map::new();
+    fields.insert("max_error_m".into(), json!(round_m(rad_to_m(max_rad))));
+    fields.insert(
+        "mean_error_m".into(),
+        json!(round_m(rad_to_m(sum_rad / n_in as f64))),
+    );
+    fields.insert(
+        "rms_error_m".into(),
+        json!(round_m(rad_to_m((sq_rad / n_in as f64).sqrt()))),
+    );
+    fields.insert("input_points".into(), json!(n_in));
+    fields.insert("control_points".into(), json!(control_points));
+    fields.insert("iterations".into(), json!(iterations));
+    fields.insert("converged".into(), json!(converged));
+    fields.insert("knots".into(), knots);
+    match time {
+        Some(t) => {
+            fields.insert("parameterization".into(), json!("time"));
+            fields.insert("time".into(), t.map.to_json(&t.origin));
+        }
+        None => {
+            fields.insert(
+                "parameterization".into(),
+                serde_json::to_value(parameterization).expect("enum serialises"),
+            );
+        }
+    }
+    fields.insert("output_points".into(), json!(points_out.len()));
+    fields.insert(
+        "sampling_deviation_m".into(),
+        json!(round_m(rad_to_m(dense.max_deviation_rad))),
+    );
+    fields.insert("spline".into(), spline_doc);
+    Ok((
+        CurveOutput {
+            pointer: pointer.to_string(),
+            has_alt: line.alts.is_some(),
+            report: CurveReport {
+                path,
+                closed,
+                fields,
+                input_points: n_in,
+                output_points: points_out.len(),
+                stored_numbers: bspline_stored_numbers(&spline),
+                max_error_m: rad_to_m(max_rad),
+                error_sum_m: rad_to_m(sum_rad),
+                error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
+            },
+            points: points_out,
+            alts,
+            time: dense_times,
+        },
+        max_rad,
+    ))
+}
+
+/// How far rounding a control point to `precision` decimals of a degree can move it, in
+/// radians (half a unit in the last place of longitude and of latitude).
+pub fn rounding_bound_rad(precision: u32) -> f64 {
+    (0.5 * 10f64.powi(-(precision as i32)) * std::f64::consts::SQRT_2).to_radians()
+}
+
+/// Fits one line (or ring, when `closed`) to a tolerance in metres with
+/// [`fit_to_tolerance`] (lon/lat unit vectors, after repeats are dropped).
+///
+/// The fitter aims at the tolerance minus 1.5 times [`rounding_bound_rad`] so that the curve
+/// still meets it once its control points are rounded to `precision`; the errors are then
+/// measured on the rounded curve, and `tolerance_met` is true only when that max error (and
+/// its value rounded to millimetres) is within the tolerance. When rounding pushes a fit that
+/// met its target over the tolerance, it is refitted once with a target lowered by the excess.
+///
+/// A ring (or a LineString whose last position repeats its first) is fitted as an open line
+/// through its positions (first = last) and then closed by pinning the end control points
+/// together (to their normalised mean, [`crate::sphere::fit::seam::close_seam`] without the C1
+/// condition); the errors are those of the closed curve, so pinning can cost the tolerance
+/// (`tolerance_met: false`, never hidden).
+///
+/// `options.degree` caps the degrees tried (1 ..= degree, at most 3); `options.parameterization`
+/// gives the starting parameters, which the fitter then moves to foot points. `iterations` is
+/// reported as 0 and `converged` as `tolerance_met`.
+///
+/// # Errors
+/// As [`fit_line`].
+#[allow(clippy::too_many_arguments)]
+pub fn fit_line_to_tolerance(
+    coords: &Value,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    options: &FitOptions,
+    tolerance_m: f64,
+    output: &OutputOptions,
+    limits: &Limits,
+    time: Option<&LineTimeInput<'_>>,
+) -> Result<CurveOutput, EarthError> {
+    let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
+    let closed = timed.is_none() && (closed || is_closed_line(&distinct));
+    let given = timed.as_ref().map(|t| t.params.as_slice());
+    let points = distinct.point_set();
+    let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
+    let tol_rad = m_to_rad(tolerance_m);
+    let bound = rounding_bound_rad(output.precision);
+    // The dense output adds its deviation to the curve's distance from the line.
+    let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
+    let mut target = tolerance_target_rad(tol_rad, output.precision);
+    // No control-point cap below the input's own size here: a long line at a small tolerance
+    // may need nearly a control point per position, and the input limits already bound that.
+    let mut topts = ToleranceOptions {
+        parameterization: options.parameterization,
+        max_control_points: Some(distinct.len()),
+        // The curve is measured below, as returned (rounded, closed).
+        measure_result: false,
+        ..ToleranceOptions::default()
+    };
+    topts.degrees.retain(|&p| p <= options.degree.max(1));
+    let mut attempt = 0;
+    loop {
+        let r = fit_to_tolerance(&points, given, target, &topts).map_err(fit_err)?;
+        let spline = if closed {
+            crate::sphere::fit::seam::close_seam(&r.spline, false).map_err(fit_err)?
+        } else {
+            r.spline.clone()
+        };
+        let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
+        // The two-way distance of the curve as returned (rounded, and closed for a ring).
+        let tw = two_way_distance(
+            &spline,
+            &points,
+            &r.parameters,
+            &TwoWayOptions::default()
+                .with_precision_rad(REPORT_TWO_WAY_PRECISION * tol_rad)
+                .with_max_evaluations(4_000_000 + 400 * points.len()),
+        )
+        .map_err(fit_err)?;
+        let input_len = polyline_length(&points);
+        let length_ratio = if input_len > 0.0 {
+            tw.curve_length_rad / input_len
+        } else {
+            1.0
+        };
+        let stored = stored_numbers(&spline, r.knot_rule);
+        let knot_rule = serde_json::to_value(r.knot_rule).expect("enum serialises");
+        let (mut out, max_rad) = finish_fit(
+            Fitted {
+                line: &line,
+                distinct: &distinct,
+                points: &points,
+                spline,
+                control_ll,
+                params: r.parameters,
+                iterations: 0,
+                converged: false,
+                knots: knot_rule.clone(),
+                parameterization: options.parameterization,
+                // The margin the fit left for the dense output, so the returned geometry
+                // stays within the tolerance too.
+                sampling_aim_rad: Some(dense_margin),
+                time: timed.as_ref(),
+            },
+            pointer,
+            path.clone(),
+            closed,
+            output,
+            limits,
+        )?;
+        let worst = max_rad.max(tw.upper_rad);
+        let met = worst <= tol_rad
+            && round_m(rad_to_m(worst)) <= tolerance_m
+            && tw.curve_length_rad <= MAX_LENGTH_RATIO * input_len + tol_rad;
+        if !met && r.tolerance_met && attempt == 0 && worst > tol_rad {
+            // Rounding (or closing the ring) took a fit that met its target over the
+            // tolerance: aim lower by the excess, once.
+            let lower = target - 2.0 * (worst - tol_rad) - bound;
+            if lower > 0.25 * tol_rad {
+                target = lower;
+                attempt += 1;
+                continue;
+            }
+        }
+        let n_in = line.points.len();
+        let f = &mut out.report.fields;
+        f.insert("converged".into(), json!(met));
+        f.insert("tolerance_m".into(), json!(tolerance_m));
+        f.insert("tolerance_met".into(), json!(met));
+        f.insert(
+            "two_way_distance_m".into(),
+            json!(round_up_m(rad_to_m(tw.upper_rad))),
+        );
+        f.insert(
+            "curve_length_ratio".into(),
+            json!(round_to(length_ratio, 4)),
+        );
+        f.insert("degree".into(), json!(r.degree));
+        f.insert("knot_rule".into(), knot_rule);
+        f.insert("stored_numbers".into(), json!(stored));
+        f.insert(
+            "compression_ratio".into(),
+            json!(compression_ratio(n_in, stored)),
+        );
+        out.report.stored_numbers = stored;
+        return Ok(out);
+    }
+}
+
+/// A fit in time whose two-way distance exceeds this many times its max error (at least
+/// 1 m) is refitted with GLS-PIA, and the curve nearer the line kept (see [`fit_line`]).
+pub const TIME_STRAY_SHARE: f64 = 4.0;
+
+/// Precision of the reported two-way distance, as a share of the tolerance.
+pub(super) const REPORT_TWO_WAY_PRECISION: f64 = 0.01;
+
+/// Without a tolerance the two-way distance is reported to 1 % of the max error or to this
+/// share of the line's length, whichever is coarser (at least half a metre): near-exact fits of
+/// long lines would otherwise spend seconds proving centimetres (the speed bound of the SLERP
+/// triangle is first-order tight, so the cost grows as length / precision) ...
+pub(super) const REPORT_TWO_WAY_LENGTH_SHARE: f64 = 1e-5;
+
+/// ... with at most this many curve evaluations (plus 64 per position); past them the bound
+/// stays proven, only looser.
+pub(super) const REPORT_TWO_WAY_EVALUATIONS: usize = 50_000;
+
+/// Numbers a B-spline stores ([`stored_numbers`]), its knots counted unless they are the clamped
+/// uniform ones, which need no storing: the same count whichever path made the spline.
+pub(super) fn bspline_stored_numbers(spline: &SphericalBSpline) -> usize {
+    let rule = if spline.has_clamped_uniform_knots() {
+        KnotRule::Uniform
+    } else {
+        KnotRule::Stored
+    };
+    stored_numbers(spline, rule)
+}
+
+/// A spline whose control points are rounded to `precision` decimals of a degree, and those
+/// control points as `[lon, lat]`.
+pub(crate) fn round_spline(
+    s: &SphericalBSpline,
+    precision: u32,
+) -> Result<(SphericalBSpline, Vec<[f64; 2]>), SphereError> {
+    let ll: Vec<[f64; 2]> = s
+        .control_points()
+        .iter()
+        .map(|p| {
+            let (lon, lat) = unit_to_lonlat(p);
+            [round_to(lon, precision), round_to(lat, precision)]
+        })
+        .collect();
+    let rows: Vec<[f64; 3]> = ll.iter().map(|p| lonlat_to_unit(p[0], p[1])).collect();
+    let control = PointSet::try_from_rows(&rows)?;
+    Ok((
+        SphericalBSpline::try_new(s.degree(), s.knots().to_vec(), control)?,
+        ll,
+    ))
+}
+
+/// Fits a closed line: [`crate::sphere::fit::seam::fit_closed`] (first position = last; smooth
+/// across the seam unless the line turns sharply there).
+pub(super) fn fit_closed(
+    points: &PointSet,
+    options: &FitOptions,
+) -> Result<crate::sphere::FitReport, SphereError> {
+    crate::sphere::fit::seam::fit_closed(points, options)
+}
+
+/// What a tolerance fit aims at so that the curve as returned meets `tol_rad`: below it by
+/// the rounding of the control points to `precision` decimals (when that leaves room), and by
+/// the deviation the dense output adds to the curve's distance from the line (when at least
+/// half the tolerance is left).
+pub(crate) fn tolerance_target_rad(tol_rad: f64, precision: u32) -> f64 {
+    let bound = rounding_bound_rad(precision);
+    let mut target = if tol_rad > 3.0 * bound {
+        tol_rad - 1.5 * bound
+    } else {
+        tol_rad
+    };
+    let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
+    if target - dense_margin > 0.5 * tol_rad {
+        target -= dense_margin;
+    }
+    target
+}

@@ -1,0 +1,161 @@
+//! What a curve gives back: its report ([`CurveReport`]), the dense line and its times
+//! ([`CurveOutput`]), and positions as written.
+
+use super::*;
+
+/// Everything reported about one fitted, interpolated or evaluated curve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurveReport {
+    /// Where the curve sits in its geometry's coordinates (`[]` for a LineString, `[i]` for a
+    /// MultiLineString part or Polygon ring, `[polygon, ring]` for a MultiPolygon).
+    pub path: Vec<usize>,
+    /// A ring (closed curve).
+    pub closed: bool,
+    /// Fields of `properties.fit` (or `interpolation`) for this curve, spline/curve included.
+    pub fields: Map<String, Value>,
+    /// Input positions (repeats included); 0 for evaluation.
+    pub input_points: usize,
+    /// Dense output points.
+    pub output_points: usize,
+    /// Numbers that store the curve (control point coordinates, knots, degree).
+    pub stored_numbers: usize,
+    /// Max error in metres (0 for evaluation).
+    pub max_error_m: f64,
+    /// Sum of errors and of squared errors (metres), for pooled means.
+    pub error_sum_m: f64,
+    /// Sum of squared errors, square metres.
+    pub error_sq_sum_m2: f64,
+}
+
+/// A curve ready for output: dense unit vectors with altitudes, and its report.
+#[derive(Clone, Debug)]
+pub struct CurveOutput {
+    /// Where the curve's coordinates (or document) sit in the input.
+    pub pointer: String,
+    /// The dense curve as unit vectors.
+    pub points: Vec<[f64; 3]>,
+    /// The altitude of each dense point (0 without altitudes).
+    pub alts: Vec<f64>,
+    /// Whether the input had altitudes, so the output positions carry a third value.
+    pub has_alt: bool,
+    /// What was done and how well.
+    pub report: CurveReport,
+    /// The time of each dense point, for a curve in time.
+    pub time: Option<DenseTimes>,
+}
+
+/// The number of points automatic sampling starts from: a few per control point.
+pub(crate) fn sampling_start(control_points: usize) -> usize {
+    (4 * control_points).max(16)
+}
+
+/// Automatic sampling tolerance for a curve whose max error is `max_error_rad`.
+pub fn auto_tolerance_rad(max_error_rad: f64) -> f64 {
+    (AUTO_DEVIATION_FRACTION * max_error_rad).max(m_to_rad(AUTO_DEVIATION_FLOOR_M))
+}
+
+/// Samples a curve densely as the output options say; `spacing_s` needs the curve's times.
+pub(super) fn sample_curve(
+    curve: &dyn crate::sphere::SphericalCurve,
+    output: &OutputOptions,
+    closed: bool,
+    auto_tolerance_rad: f64,
+    start: usize,
+    limits: &Limits,
+    time: Option<&TimeMap>,
+) -> Result<DenseCurve, EarthError> {
+    match (output.sampling, time) {
+        (Sampling::SpacingS(s), Some(map)) => Ok(sample_at(
+            curve,
+            time_parameters(map.duration_s(), s, limits.max_samples)?,
+        )),
+        (sampling, _) => sample(
+            curve,
+            ring_sampling(sampling, closed),
+            auto_tolerance_rad,
+            start,
+            limits.max_samples,
+        ),
+    }
+}
+
+/// Metres rounded up to millimetres: for bounds, which must not shrink in print.
+pub(crate) fn round_up_m(x: f64) -> f64 {
+    (x * 1000.0).ceil() / 1000.0
+}
+
+/// `2 × input positions / stored numbers`, to 3 decimals.
+pub fn compression_ratio(input_points: usize, stored_numbers: usize) -> f64 {
+    round_to(2.0 * input_points as f64 / stored_numbers.max(1) as f64, 3)
+}
+
+/// Dense points (a ring ends exactly where it starts) and altitudes interpolated linearly over
+/// the data parameters.
+pub(super) fn finish_dense(
+    dense: &DenseCurve,
+    closed: bool,
+    data_params: &[f64],
+    data_alts: &[f64],
+) -> (Vec<[f64; 3]>, Vec<f64>) {
+    let mut pts = dense.points.clone();
+    if closed && pts.len() > 1 {
+        let last = pts.len() - 1;
+        pts[last] = pts[0];
+    }
+    let mut alts: Vec<f64> = dense
+        .params
+        .iter()
+        .map(|&t| interpolate_altitude(data_params, data_alts, t))
+        .collect();
+    if closed && alts.len() > 1 {
+        let last = alts.len() - 1;
+        alts[last] = alts[0];
+    }
+    (pts, alts)
+}
+
+pub(super) fn interpolate_altitude(params: &[f64], alts: &[f64], t: f64) -> f64 {
+    let j = params.partition_point(|&u| u <= t);
+    if j == 0 {
+        return alts[0];
+    }
+    if j >= params.len() {
+        return alts[alts.len() - 1];
+    }
+    let (ta, tb) = (params[j - 1], params[j]);
+    if tb <= ta {
+        return alts[j];
+    }
+    let f = (t - ta) / (tb - ta);
+    // This form cannot overflow for finite altitudes of opposite signs.
+    (1.0 - f) * alts[j - 1] + f * alts[j]
+}
+
+/// A ring needs at least 4 output positions (RFC 7946 §3.1.6).
+pub(super) fn ring_sampling(sampling: Sampling, closed: bool) -> Sampling {
+    match sampling {
+        Sampling::Samples(n) if closed && n < 4 => Sampling::Samples(4),
+        Sampling::SpacingAndSamples { spacing_m, samples } if closed && samples < 4 => {
+            Sampling::SpacingAndSamples {
+                spacing_m,
+                samples: 4,
+            }
+        }
+        Sampling::SpacingM(spacing_m) if closed => Sampling::SpacingAndSamples {
+            spacing_m,
+            samples: 4,
+        },
+        s => s,
+    }
+}
+
+/// Rounds a position for output: degrees to `precision`, altitude to millimetres.
+pub fn output_position(p: &[f64; 3], has_alt: bool, precision: u32) -> Value {
+    let lon = round_to(p[0], precision);
+    let lat = round_to(p[1], precision);
+    if has_alt {
+        json!([lon, lat, round_to(p[2], ALTITUDE_DECIMALS)])
+    } else {
+        json!([lon, lat])
+    }
+}

@@ -1,0 +1,195 @@
+//! Curves stored as lon/lat documents (`properties.fit`, `properties.interpolation`, a bare
+//! spline document): read back ([`curve_from_lonlat_json`]) and evaluated, densely or in time.
+
+use super::*;
+
+/// Reads a lon/lat curve document at `pointer`: a B-spline `{"degree", "knots",
+/// "control_points": [[lon, lat], ...]}` or a Beta-spline `{"type": "beta", "beta1", "beta2",
+/// "segments"}`. `"crs"`, when present, must be `"lonlat"`.
+///
+/// # Errors
+/// [`Problem::InvalidSpline`] or [`Problem::InvalidCoordinate`] at the offending field.
+pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, EarthError> {
+    let invalid = |ptr: String, msg: String| EarthError::new(ptr, Problem::InvalidSpline(msg));
+    let map = v.as_object().ok_or_else(|| {
+        invalid(
+            pointer.to_string(),
+            "expected a spline document {\"degree\", \"knots\", \"control_points\": [[lon, lat], ...]}".into(),
+        )
+    })?;
+    if let Some(crs) = map.get("crs") {
+        if crs.as_str() != Some("lonlat") {
+            return Err(invalid(
+                format!("{pointer}/crs"),
+                "only \"lonlat\" is supported here (a document of unit vectors is an S^n document: evaluate it on S^n)"
+                    .into(),
+            ));
+        }
+    }
+    let is_beta =
+        map.get("type").and_then(Value::as_str) == Some("beta") || map.contains_key("segments");
+    // Convert lon/lat positions to unit vectors in a copy of the document, then let the math
+    // core's document reader validate it (its pointers are relative to the document).
+    let mut unit = map.clone();
+    unit.remove("crs");
+    let convert = |v: &Value, ptr: &str| -> Result<Value, EarthError> {
+        let line = parse_positions(v, ptr)?;
+        Ok(json!(line.points))
+    };
+    if is_beta {
+        let segs = map
+            .get("segments")
+            .and_then(Value::as_array)
+            .ok_or_else(|| {
+                invalid(
+                    format!("{pointer}/segments"),
+                    "expected an array of segments".into(),
+                )
+            })?;
+        let mut out = Vec::with_capacity(segs.len());
+        for (i, s) in segs.iter().enumerate() {
+            out.push(convert(s, &format!("{pointer}/segments/{i}"))?);
+        }
+        unit.insert("segments".into(), Value::Array(out));
+        let spline = BetaDocument::from_json(&Value::Object(unit))
+            .and_then(|d| d.to_spline())
+            .map_err(|e| invalid(format!("{pointer}{}", e.pointer), e.message))?;
+        Ok(AnyCurve::Beta(spline))
+    } else {
+        let cps = map.get("control_points").ok_or_else(|| {
+            invalid(
+                pointer.to_string(),
+                "missing \"control_points\" ([[lon, lat], ...])".into(),
+            )
+        })?;
+        unit.insert(
+            "control_points".into(),
+            convert(cps, &format!("{pointer}/control_points"))?,
+        );
+        let spline = crate::document::spline_from_json(&Value::Object(unit))
+            .map_err(|e| invalid(format!("{pointer}{}", e.pointer), e.message))?;
+        Ok(AnyCurve::BSpline(spline))
+    }
+}
+
+/// Samples a stored curve densely (for `evaluate`). `known_error_m` (the fit's max error, when
+/// the document carries it) sets the automatic sampling tolerance.
+///
+/// # Errors
+/// An invalid document, or output over the limits.
+///
+/// `time` is the stored `time` of a fit in time and its pointer: the dense points then carry
+/// their times (an evaluated line has no altitudes, so the times of a track whose times were
+/// its 4th coordinate go to the property `times`, in unix seconds), and `spacing_s` applies.
+#[allow(clippy::too_many_arguments)]
+pub fn evaluate_curve(
+    doc: &Value,
+    pointer: &str,
+    path: Vec<usize>,
+    closed: bool,
+    known_error_m: Option<f64>,
+    output: &OutputOptions,
+    limits: &Limits,
+    time: Option<(&Value, &str)>,
+) -> Result<CurveOutput, EarthError> {
+    let curve = curve_from_lonlat_json(doc, pointer)?;
+    let time = time.map(|(v, p)| TimeMap::from_json(v, p)).transpose()?;
+    let (start, stored) = match &curve {
+        AnyCurve::BSpline(s) => {
+            let n = s.control_points().len();
+            (sampling_start(n), bspline_stored_numbers(s))
+        }
+        AnyCurve::Beta(s) => {
+            let n = s.segment_count();
+            (sampling_start(n), s.stored_numbers())
+        }
+    };
+    let tol = auto_tolerance_rad(m_to_rad(known_error_m.unwrap_or(0.0).max(0.0)));
+    let dense = sample_curve(
+        &curve,
+        output,
+        closed,
+        tol,
+        start,
+        limits,
+        time.as_ref().map(|(m, _)| m),
+    )
+    .map_err(|e| EarthError::new(pointer, e.problem))?;
+    let (points, alts) = finish_dense(&dense, closed, &[0.0], &[0.0]);
+    let dense_times = time.map(|(map, origin)| DenseTimes {
+        unix_s: dense.params.iter().map(|&u| map.time(u)).collect(),
+        format: map.format,
+        origin: match origin {
+            TimeOrigin::M => TimeOrigin::Property("times".into()),
+            o => o,
+        },
+    });
+    let mut fields = Map::new();
+    fields.insert("output_points".into(), json!(points.len()));
+    fields.insert(
+        "sampling_deviation_m".into(),
+        json!(round_m(rad_to_m(dense.max_deviation_rad))),
+    );
+    Ok(CurveOutput {
+        pointer: pointer.to_string(),
+        has_alt: false,
+        report: CurveReport {
+            path,
+            closed,
+            fields,
+            input_points: 0,
+            output_points: points.len(),
+            stored_numbers: stored,
+            max_error_m: 0.0,
+            error_sum_m: 0.0,
+            error_sq_sum_m2: 0.0,
+        },
+        points,
+        alts,
+        time: dense_times,
+    })
+}
+
+/// A stored fit in time: its spline and the map from times to its parameter.
+#[derive(Clone, Debug)]
+pub struct CurveInTime {
+    /// The spline (parameter on [0, 1]).
+    pub spline: SphericalBSpline,
+    /// Times <-> parameter.
+    pub map: TimeMap,
+    /// Where its times came from.
+    pub origin: TimeOrigin,
+}
+
+/// Reads a fit in time: the lon/lat B-spline `doc` at `pointer` and its `time` member.
+///
+/// # Errors
+/// [`Problem::InvalidSpline`] for a bad document, or when `time` is missing (the fit was not
+/// made with `parameterization=time`).
+pub fn curve_in_time(
+    doc: &Value,
+    pointer: &str,
+    time: Option<&Value>,
+    time_pointer: &str,
+) -> Result<CurveInTime, EarthError> {
+    let Some(time) = time else {
+        return Err(EarthError::new(
+            time_pointer,
+            Problem::InvalidSpline(
+                "this fit is not in time (no \"time\" beside the spline): fit with parameterization time to evaluate at times".into(),
+            ),
+        ));
+    };
+    let (map, origin) = TimeMap::from_json(time, time_pointer)?;
+    match curve_from_lonlat_json(doc, pointer)? {
+        AnyCurve::BSpline(spline) => Ok(CurveInTime {
+            spline,
+            map,
+            origin,
+        }),
+        AnyCurve::Beta(_) => Err(EarthError::new(
+            pointer,
+            Problem::InvalidSpline("a Beta-spline is not a curve in time".into()),
+        )),
+    }
+}
