@@ -8,6 +8,7 @@
 #
 #   scripts/speed_bench.sh                 # T = 100 m, 2 threads
 #   T=25 THREADS=1 scripts/speed_bench.sh
+#   PREPARE_ONLY=1 scripts/speed_bench.sh  # only install and decode the inputs
 #
 # npm packages go to target/speed-bench/node (installed on first run); outputs to
 # target/speed-bench/.
@@ -42,6 +43,10 @@ if [ ! -s "$dir/land10m_rings.geojson" ]; then
     for (const f of features) if (f.geometry.coordinates.length > big.geometry.coordinates.length) big = f;
     require("fs").writeFileSync(process.argv[3], JSON.stringify({type: "FeatureCollection", features: [big]}));
   ' "$dir/node" "$dir/land10m_rings.geojson" "$dir/largest_ring.geojson"
+fi
+
+if [ -n "${PREPARE_ONLY:-}" ]; then
+  exit 0
 fi
 
 points() { python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); print(len(d["features"]), sum(len(f["geometry"]["coordinates"]) for f in d["features"]))' "$1"; }

@@ -76,11 +76,24 @@
 //! # Cost
 //! O(n) per Gauss–Newton pass; removals refit windows of about (p + 3) control points, so a
 //! fit costs a few dozen passes' worth of work: milliseconds to seconds for thousands of points
-//! (the bench prints the times), single-threaded. What keeps it linear: a removal saves and
-//! undoes only its window; a polyline removal with a point three tolerances from
-//! the replacing chord is not refitted; a removal that failed is retried in a later sweep only
-//! where a removal since changed its neighbourhood. `scripts/speed_bench.sh` measures whole
-//! datasets against mapshaper.
+//! (the bench prints the times). What keeps it linear: a removal saves and undoes only its
+//! window, in buffers kept between removals; a polyline removal with a point two tolerances
+//! from the replacing chord is not refitted; a removal that failed is retried in a later sweep
+//! only where a removal since changed its neighbourhood; a line of 4,096 or more seed vertices
+//! is cut into pieces at pinned seed vertices, fitted in parallel (shifting the vertices behind
+//! a removal was quadratic in the line). What keeps it fast on real lines:
+//! * **A degree probe.** Degrees 2 and 3 are tried only when the best polyline bends the way a
+//!   smooth curve does: two thirds or more of its neighbouring turns bend the same way (bends
+//!   of three or more vertices between inflections). Coastlines and GPS tracks at small
+//!   tolerances turn left, right, left at nearly every vertex; there the polyline is already
+//!   the cheapest curve, and the uniform-knot search spent half of a coastline's fitting time
+//!   proving it. On the compression bench this changed no result.
+//! * The uniform-knot search stops a fit whose last pass's gain, kept up for every pass left,
+//!   would not reach the target.
+//! * The polyline fallbacks are only built when the search found nothing.
+//!
+//! `scripts/speed_bench.sh` measures whole datasets against mapshaper, and
+//! `scripts/callgrind_bench.sh` counts instructions (stable on a shared machine).
 
 use super::simplify::{
     distance_to_arc, douglas_peucker, douglas_peucker_ordered, synchronized_douglas_peucker,
@@ -100,7 +113,7 @@ use crate::sphere::geometry::point::{
     angle, angle_from_chords, diff_sum_sq, dot, exp_in_place, slerp, Dim, PointSet,
     SERIES_ANGLE_MAX_RAD,
 };
-use crate::sphere::linalg::banded::SymmetricBand;
+use crate::sphere::linalg::banded::{BandCholesky, SymmetricBand};
 use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};
 
@@ -172,15 +185,16 @@ pub struct ToleranceOptions {
     /// curve ends near (within the tolerance of) the end points only.
     pub pin_ends: bool,
     /// With free parameters, try degrees >= 2 only when the best degree-1 curve bends smoothly
-    /// (see [`smooth_bends`]): on lines whose polyline zigzags at the tolerance's scale, a
-    /// smooth curve needs more control points than the polyline has vertices, and proving so
-    /// cost half the fitting time of a coastline.
+    /// (two thirds of its neighbouring turns the same way; see the module docs): where the
+    /// polyline zigzags at the tolerance's scale, a smooth curve needs more control points
+    /// than the polyline has vertices, and proving so cost half the fitting time of a
+    /// coastline.
     pub degree_probe: bool,
-    /// Measure the returned curve's two-way distance to [`TWO_WAY_PRECISION`] of the tolerance
-    /// for [`ToleranceFit::two_way_rad`]. Off, that field is the bound the fitter decided by
-    /// (proven, at most the tolerance, but looser) and the length ratio is the decision's
-    /// (a curve that misses is still measured): for callers that measure the curve themselves after rounding it (the
-    /// Earth layer), which saved a tenth of a coastline's fitting time.
+    /// Measure the returned curve's two-way distance to 2 % of the tolerance for
+    /// [`ToleranceFit::two_way_rad`]. Off, that field is the bound the fitter decided by
+    /// (proven, at most the tolerance, but looser) and the length ratio is the decision's (a
+    /// curve that misses is still measured): for callers that measure the curve themselves
+    /// after rounding it (the Earth layer); it saved a tenth of a coastline's fitting time.
     pub measure_result: bool,
     /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
     pub cancel: crate::sphere::cancel::Cancel,
@@ -1111,6 +1125,29 @@ struct Fitter<'a, D: Dim, G: Degree> {
     scratch: Scratch,
     c: Vec<f64>,
     c2: Vec<f64>,
+    /// Kept between refits: a removal sweep refits thousands of small windows.
+    buffers: RefitBuffers,
+    /// What a removal saves to undo itself, kept between removals.
+    undo: Undo,
+}
+
+/// The window a knot removal changes, saved before its refit ([`Fitter::try_remove`]).
+#[derive(Default)]
+struct Undo {
+    removed: Vec<f64>,
+    ctrl: Vec<f64>,
+    params: Vec<f64>,
+    err: Vec<f64>,
+}
+
+/// The working arrays of one Gauss–Newton refit ([`Fitter::refit_or_give_up`]).
+#[derive(Default)]
+struct RefitBuffers {
+    band: SymmetricBand,
+    chol: BandCholesky,
+    rhs: Vec<f64>,
+    step: Vec<f64>,
+    saved: Vec<f64>,
 }
 
 /// C(t) into `out`; with `CONTRIB` the contribution coefficients are in `scratch.contrib`.
@@ -1158,6 +1195,8 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             scratch: Scratch::new(p, d.get()),
             c: vec![0.0; d.get()],
             c2: vec![0.0; d.get()],
+            buffers: RefitBuffers::default(),
+            undo: Undo::default(),
         };
         f.measure_range(0, points.len());
         Some(f)
@@ -1240,6 +1279,8 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 scratch: Scratch::new(p, dim),
                 c: vec![0.0; dim],
                 c2: vec![0.0; dim],
+                buffers: RefitBuffers::default(),
+                undo: Undo::default(),
             };
             f.measure_range(0, points.len());
             f
@@ -1499,7 +1540,8 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let nf = c1 - c0;
         let (mut max, mut loss) = self.measure_range(j0, j1);
         let mut lambda = 0.0;
-        let mut saved = vec![0.0; nf * dim];
+        let mut buffers = std::mem::take(&mut self.buffers);
+        buffers.saved.resize(nf * dim, 0.0);
         let mut before = f64::INFINITY;
         for it in 0..iterations {
             let stalled = stall
@@ -1513,8 +1555,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 break;
             }
             before = max;
-            let mut band = SymmetricBand::zeros(nf, p);
-            let mut rhs = vec![0.0; nf * dim];
+            let RefitBuffers {
+                band,
+                chol,
+                rhs,
+                step,
+                saved,
+            } = &mut buffers;
+            band.reset(nf, p);
+            rhs.clear();
+            rhs.resize(nf * dim, 0.0);
             for j in j0..j1 {
                 let t = self.params[j];
                 let k = eval_curve::<D, G, true>(
@@ -1564,15 +1614,17 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 }
             }
             let ridge = 1e-12 * band.max_diagonal().max(f64::MIN_POSITIVE);
-            saved.copy_from_slice(&self.ctrl.as_flat()[c0 * dim..c1 * dim]);
+            saved.clear();
+            saved.extend_from_slice(&self.ctrl.as_flat()[c0 * dim..c1 * dim]);
             let mut accepted = None;
             for _ in 0..8 {
-                let Some(chol) = band.cholesky(lambda, ridge) else {
+                if !band.cholesky_into(lambda, ridge, chol) {
                     lambda = (lambda * 10.0).max(1e-6);
                     continue;
-                };
-                let mut step = rhs.clone();
-                chol.solve_in_place(&mut step, dim);
+                }
+                step.clear();
+                step.extend_from_slice(rhs);
+                chol.solve_in_place(step, dim);
                 for i in 0..nf {
                     move_along_geodesic(
                         d,
@@ -1586,7 +1638,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     accepted = Some((nmax, nloss));
                     break;
                 }
-                self.restore(c0, &saved);
+                self.restore(c0, saved);
                 lambda = if lambda == 0.0 { 1e-4 } else { lambda * 10.0 };
             }
             let Some((nmax, nloss)) = accepted else {
@@ -1610,6 +1662,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 break;
             }
         }
+        self.buffers = buffers;
         max
     }
 
@@ -1767,16 +1820,22 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             return None;
         }
         // Only the window changes: it alone is saved, and the removal is undone in place.
+        let mut undo = std::mem::take(&mut self.undo);
         let knot_removed = self.knots.remove(r);
-        let removed_ctrl = self.ctrl.get(c).to_vec();
+        undo.removed.clear();
+        undo.removed.extend_from_slice(self.ctrl.get(c));
         self.ctrl.remove(c);
         let n = n - 1;
         let c0 = (r + 1).saturating_sub(p + 2 + REMOVAL_MARGIN);
         let c1 = (r + REMOVAL_MARGIN).min(n);
-        let ctrl_before = self.ctrl.as_flat()[c0 * dim..c1 * dim].to_vec();
+        undo.ctrl.clear();
+        undo.ctrl
+            .extend_from_slice(&self.ctrl.as_flat()[c0 * dim..c1 * dim]);
         let (j0, j1) = self.window_points(c0, c1);
-        let params_before = self.params[j0..j1].to_vec();
-        let err_before = self.err[j0..j1].to_vec();
+        undo.params.clear();
+        undo.params.extend_from_slice(&self.params[j0..j1]);
+        undo.err.clear();
+        undo.err.extend_from_slice(&self.err[j0..j1]);
         let mut max = self.refit_or_give_up(c0, c1, REFIT_ITERATIONS, target, 4.0, false);
         if self.reweight {
             let mut round = 0;
@@ -1790,15 +1849,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             }
             self.weight[j0..j1].iter_mut().for_each(|w| *w = 1.0);
         }
-        if max <= target && self.vertices_near_the_line(c0, c1, target) {
-            return Some((c0, c1));
+        let kept = max <= target && self.vertices_near_the_line(c0, c1, target);
+        if !kept {
+            self.restore(c0, &undo.ctrl);
+            self.ctrl.insert(c, &undo.removed);
+            self.knots.insert(r, knot_removed);
+            self.params[j0..j1].copy_from_slice(&undo.params);
+            self.err[j0..j1].copy_from_slice(&undo.err);
         }
-        self.restore(c0, &ctrl_before);
-        self.ctrl.insert(c, &removed_ctrl);
-        self.knots.insert(r, knot_removed);
-        self.params[j0..j1].copy_from_slice(&params_before);
-        self.err[j0..j1].copy_from_slice(&err_before);
-        None
+        self.undo = undo;
+        kept.then_some((c0, c1))
     }
 
     /// For a polyline (degree 1): removing vertex `c` replaces its two segments by the chord
@@ -1881,6 +1941,8 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             scratch: Scratch::new(p, self.d.get()),
             c: vec![0.0; self.d.get()],
             c2: vec![0.0; self.d.get()],
+            buffers: RefitBuffers::default(),
+            undo: Undo::default(),
         };
         let mut max = f.measure_range(0, self.points.len()).0;
         if max > target && p >= 2 {

@@ -4,7 +4,7 @@
 
 /// A symmetric N x N matrix with half-bandwidth `bw`, upper band stored row by row:
 /// `get(i, i + d)` for d = 0..=bw.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct SymmetricBand {
     n: usize,
     bw: usize,
@@ -19,6 +19,15 @@ impl SymmetricBand {
             bw,
             data: vec![0.0; n * (bw + 1)],
         }
+    }
+
+    /// Makes this the n x n zero matrix of half-bandwidth `bw`, reusing its storage (a fitter
+    /// solves thousands of small windows).
+    pub fn reset(&mut self, n: usize, bw: usize) {
+        self.n = n;
+        self.bw = bw;
+        self.data.clear();
+        self.data.resize(n * (bw + 1), 0.0);
     }
 
     /// Element (i, j) with |i - j| <= bw.
@@ -54,10 +63,21 @@ impl SymmetricBand {
     /// Cholesky factor of `self + diag(shift_i)`, with `shift_i = damping * a_ii + ridge`.
     /// `None` when the shifted matrix is not positive definite.
     pub fn cholesky(&self, damping: f64, ridge: f64) -> Option<BandCholesky> {
+        let mut out = BandCholesky::default();
+        self.cholesky_into(damping, ridge, &mut out).then_some(out)
+    }
+
+    /// [`cholesky`](Self::cholesky) into `out`, reusing its storage; false when the shifted
+    /// matrix is not positive definite (`out` is then undefined).
+    pub fn cholesky_into(&self, damping: f64, ridge: f64, out: &mut BandCholesky) -> bool {
         let (n, bw) = (self.n, self.bw);
         let w = bw + 1;
+        out.n = n;
+        out.bw = bw;
         // l[i * w + d] = L[i][i - d].
-        let mut l = vec![0.0; n * w];
+        let l = &mut out.l;
+        l.clear();
+        l.resize(n * w, 0.0);
         for i in 0..n {
             let lo = i.saturating_sub(bw);
             for j in lo..=i {
@@ -70,7 +90,7 @@ impl SymmetricBand {
                 }
                 if i == j {
                     if s <= 0.0 || !s.is_finite() {
-                        return None;
+                        return false;
                     }
                     l[i * w] = s.sqrt();
                 } else {
@@ -78,12 +98,12 @@ impl SymmetricBand {
                 }
             }
         }
-        Some(BandCholesky { n, bw, l })
+        true
     }
 }
 
 /// The lower band Cholesky factor L of a [`SymmetricBand`].
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct BandCholesky {
     n: usize,
     bw: usize,
