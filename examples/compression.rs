@@ -509,6 +509,10 @@ fn ablation(sets: &[DataSet]) {
             ToleranceOptions::default().with_reweight(false),
         ),
         (
+            "no degree probe (degrees 2, 3 always tried)",
+            ToleranceOptions::default().with_degree_probe(false),
+        ),
+        (
             "no parameter correction",
             ToleranceOptions::default().with_correct_parameters(false),
         ),
