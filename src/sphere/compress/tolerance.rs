@@ -635,6 +635,15 @@ fn search(
             if polyline.is_some_and(|(c, _)| !smooth_bends(c.spline.control_points())) {
                 continue;
             }
+            // Douglas–Peucker keeps nearly every point: each one is a corner at this
+            // tolerance, which a smooth curve must turn within a tolerance of, at the cost of
+            // control points clustered there; the polyline is already the cheapest curve.
+            let kept = yardstick.saturating_sub(1) / (points.dim() - 1);
+            if yardstick < usize::MAX
+                && kept * SPARSE_DENOMINATOR >= SPARSE_NUMERATOR * points.len()
+            {
+                continue;
+            }
         }
         // Curves storing as much as Douglas–Peucker (the yardstick) are never proven, so the
         // uniform-knot search does not look at them either.
@@ -675,6 +684,12 @@ fn search(
 /// Fewest turns (interior vertices) of a polyline for [`smooth_bends`] to judge it; a shorter
 /// one is always tried at every degree (its fits are cheap).
 const PROBE_MIN_TURNS: usize = 10;
+
+/// A line whose Douglas–Peucker polyline keeps this share of its points or more
+/// (`SPARSE_NUMERATOR / SPARSE_DENOMINATOR`) is only fitted by polylines (see [`search`]).
+const SPARSE_NUMERATOR: usize = 4;
+/// See [`SPARSE_NUMERATOR`].
+const SPARSE_DENOMINATOR: usize = 5;
 
 /// Least share of neighbouring turns bending the same way for a polyline to count as smooth.
 const PROBE_AGREEMENT: f64 = 2.0 / 3.0;
