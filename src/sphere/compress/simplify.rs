@@ -23,15 +23,57 @@ const DEGENERATE_ARC_RAD: f64 = 1e-12;
 /// A minor great-circle arc prepared for many distance queries: `e1 = a`, `e2` the unit tangent
 /// at `a` towards `b`, and the arc's angle.
 pub(crate) struct ArcFrame {
-    pub(crate) e1: Vec<f64>,
-    pub(crate) e2: Vec<f64>,
-    b: Vec<f64>,
+    pub(crate) e1: Coords,
+    pub(crate) e2: Coords,
+    b: Coords,
     pub(crate) theta: f64,
     /// cos and sin of `theta`: whether a point projects inside the arc, without an atan2.
     cos_theta: f64,
     sin_theta: f64,
     /// The end points are (nearly) antipodal: the minor arc is undefined.
     antipodal: bool,
+}
+
+/// A point's coordinates, inline up to 4 (S^3), on the heap beyond: frames are built by the
+/// hundred thousand (one per Douglas–Peucker split, per removal tried, per two-way piece), and
+/// three allocations each were a tenth of a coastline's fitting time.
+#[derive(Clone, Debug)]
+pub(crate) enum Coords {
+    Inline([f64; 4], usize),
+    Heap(Vec<f64>),
+}
+
+impl Coords {
+    fn from_slice(x: &[f64]) -> Coords {
+        if x.len() <= 4 {
+            let mut a = [0.0; 4];
+            a[..x.len()].copy_from_slice(x);
+            Coords::Inline(a, x.len())
+        } else {
+            Coords::Heap(x.to_vec())
+        }
+    }
+}
+
+impl std::ops::Deref for Coords {
+    type Target = [f64];
+    #[inline(always)]
+    fn deref(&self) -> &[f64] {
+        match self {
+            Coords::Inline(a, n) => &a[..*n],
+            Coords::Heap(v) => v,
+        }
+    }
+}
+
+impl std::ops::DerefMut for Coords {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [f64] {
+        match self {
+            Coords::Inline(a, n) => &mut a[..*n],
+            Coords::Heap(v) => v,
+        }
+    }
 }
 
 impl ArcFrame {
@@ -52,19 +94,23 @@ impl ArcFrame {
 
     pub(crate) fn new<D: Dim>(d: D, a: &[f64], b: &[f64]) -> ArcFrame {
         let dim = d.get();
-        let theta = Arc::between(d, a, b).theta;
+        let arc = Arc::between(d, a, b);
+        let theta = arc.theta;
         let cos = dot(d, a, b);
-        let mut e2: Vec<f64> = (0..dim).map(|k| b[k] - cos * a[k]).collect();
+        let mut e2 = Coords::from_slice(&b[..dim]);
+        for k in 0..dim {
+            e2[k] -= cos * a[k];
+        }
         if theta >= DEGENERATE_ARC_RAD {
             normalize(d, &mut e2);
         }
         ArcFrame {
-            e1: a[..dim].to_vec(),
+            e1: Coords::from_slice(&a[..dim]),
             e2,
-            b: b[..dim].to_vec(),
+            b: Coords::from_slice(&b[..dim]),
             theta,
-            cos_theta: theta.cos(),
-            sin_theta: theta.sin(),
+            cos_theta: arc.cos_theta,
+            sin_theta: arc.sin_theta,
             antipodal: theta > std::f64::consts::PI - ANTIPODAL_MARGIN_RAD,
         }
     }
