@@ -92,7 +92,10 @@
 //!   of three or more vertices between inflections). Coastlines and GPS tracks at small
 //!   tolerances turn left, right, left at nearly every vertex; there the polyline is already
 //!   the cheapest curve, and the uniform-knot search spent half of a coastline's fitting time
-//!   proving it. On the compression bench this changed no result.
+//!   proving it. On the compression bench this changed no result. Nor are they tried where
+//!   Douglas–Peucker keeps four fifths of the points or more (every point a corner at the
+//!   tolerance: short island rings), which halved the instructions of the short coastline
+//!   rings for 0.03 % more numbers.
 //! * The uniform-knot search stops a fit whose last pass's gain, kept up for every pass left,
 //!   would not reach the target.
 //! * The polyline fallbacks are only built when the search found nothing.
