@@ -42,7 +42,7 @@ pub fn fit_line(
     time: Option<&LineTimeInput<'_>>,
 ) -> Result<CurveOutput, EarthError> {
     let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
-    let closed = timed.is_none() && (closed || is_closed_line(&distinct));
+    let closed = fits_closed(closed, &distinct, timed.as_ref());
     let given = timed.as_ref().map(|t| t.params.as_slice());
     let m = distinct.len();
     let degree = options.degree.min(m - 1);
@@ -355,7 +355,7 @@ pub fn fit_line_to_tolerance(
     time: Option<&LineTimeInput<'_>>,
 ) -> Result<CurveOutput, EarthError> {
     let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
-    let closed = timed.is_none() && (closed || is_closed_line(&distinct));
+    let closed = fits_closed(closed, &distinct, timed.as_ref());
     let given = timed.as_ref().map(|t| t.params.as_slice());
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);

@@ -295,6 +295,12 @@ pub(super) fn is_closed_line(d: &DistinctPositions) -> bool {
     n >= 4 && angle_between(&d.points[0], &d.points[n - 1]) <= REPEAT_ANGLE_RAD
 }
 
+/// Whether a fit closes the curve: asked for (a ring) or a line that ends where it starts, and
+/// never in time (a track that comes back is not a loop).
+pub(super) fn fits_closed(closed: bool, d: &DistinctPositions, timed: Option<&Timed>) -> bool {
+    timed.is_none() && (closed || is_closed_line(d))
+}
+
 /// The median distance between consecutive distinct positions (radians).
 pub(super) fn median_step_rad(d: &DistinctPositions) -> f64 {
     let mut steps: Vec<f64> = d
