@@ -160,9 +160,13 @@ pub fn process(
             Err(e) => out.errors.push(format!("{label}: invalid JSON: {e}")),
         },
         Body::Document(v) => out.document(v, &label, job, allow_spline),
-        Body::Feature { value, pointer } => {
-            out.add(guarded(|| process_feature(&value, &pointer, job)), &label);
-        }
+        Body::Feature { raw, pointer } => match serde_json::from_str::<Value>(raw.get()) {
+            Ok(value) => out.add(guarded(|| process_feature(&value, &pointer, job)), &label),
+            // The reader checked the syntax; what is left is a number out of range.
+            Err(e) => out
+                .errors
+                .push(format!("{label}: invalid JSON at {pointer}: {e}")),
+        },
     }
     out
 }

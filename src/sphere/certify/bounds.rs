@@ -138,63 +138,93 @@ pub fn ellipse_deviation(length: f64, chord: f64) -> f64 {
 /// pushed through `asin(sin(.) / cos(chord/2))`, bounds it. Falls back to the Lipschitz bound
 /// when distances reach 1 rad.
 pub(crate) fn arc_to_arc_sup(y0: &[f64], y1: &[f64], frame: &ArcFrame) -> f64 {
+    arc_to_arc_sup_attained(y0, y1, frame).0
+}
+
+/// [`arc_to_arc_sup`], and the largest distance to the second arc it measured at points of the
+/// first (so attained: a lower bound of the maximum). Without allocation for points of up to
+/// 16 coordinates: the closed-form two-way distance of a polyline calls it once per arc.
+pub(crate) fn arc_to_arc_sup_attained(y0: &[f64], y1: &[f64], frame: &ArcFrame) -> (f64, f64) {
+    let dim = y0.len();
+    if dim > 16 {
+        let mut buf = vec![0.0; 3 * dim];
+        return arc_to_arc_in(y0, y1, frame, &mut buf);
+    }
+    let mut buf = [0.0; 48];
+    arc_to_arc_in(y0, y1, frame, &mut buf[..3 * dim])
+}
+
+/// [`arc_to_arc_sup_attained`] with `buf` (3 × dim) as working space.
+fn arc_to_arc_in(y0: &[f64], y1: &[f64], frame: &ArcFrame, buf: &mut [f64]) -> (f64, f64) {
     let dim = y0.len();
     let d = Dynamic(dim);
     let c = angle_between(y0, y1);
     let d0 = frame.distance_dyn(y0);
     let d1 = frame.distance_dyn(y1);
+    let ends = d0.max(d1);
     if c < 1e-12 {
-        return d0.max(d1) + c + ROUNDING_SLACK_RAD;
+        return (ends + c + ROUNDING_SLACK_RAD, ends);
     }
     let lipschitz = 0.5 * (d0 + d1 + c) + ROUNDING_SLACK_RAD;
     if frame.degenerate() {
         // The second "arc" is a point: distance to a point along an arc is at most its larger
         // end value while below pi/2.
-        let m = d0.max(d1);
-        return if m < 1.0 {
-            m + ROUNDING_SLACK_RAD
+        let bound = if ends < 1.0 {
+            ends + ROUNDING_SLACK_RAD
         } else {
             lipschitz
         };
+        return (bound, ends);
     }
+    let (w, rest) = buf.split_at_mut(dim);
+    let (m, y) = rest.split_at_mut(dim);
     // Unit tangent of the first arc at y0: y(s) = cos s y0 + sin s w.
     let cos = dot(d, y0, y1);
-    let mut w: Vec<f64> = (0..dim).map(|k| y1[k] - cos * y0[k]).collect();
-    let n = dot(d, &w, &w).sqrt();
+    for k in 0..dim {
+        w[k] = y1[k] - cos * y0[k];
+    }
+    let n = dot(d, w, w).sqrt();
     if n.is_nan() || n <= 0.0 {
-        return lipschitz;
+        return (lipschitz, ends);
     }
     w.iter_mut().for_each(|x| *x /= n);
-    let mut worst = d0.max(d1);
-    let (sin_t, cos_t) = frame.theta.sin_cos();
+    let mut worst = ends;
+    let (sin_t, cos_t) = (frame.sin_theta(), frame.cos_theta());
     // Normals of the two perpendicular great circles: e2 (at the start), -sin e1 + cos e2.
     for which in 0..2 {
-        let m: Vec<f64> = (0..dim)
-            .map(|k| {
-                if which == 0 {
-                    frame.e2[k]
-                } else {
-                    -sin_t * frame.e1[k] + cos_t * frame.e2[k]
-                }
-            })
-            .collect();
-        let (g0, g1) = (dot(d, &m, y0), dot(d, &m, &w));
+        for k in 0..dim {
+            m[k] = if which == 0 {
+                frame.e2[k]
+            } else {
+                -sin_t * frame.e1[k] + cos_t * frame.e2[k]
+            };
+        }
+        let (g0, g_end) = (dot(d, m, y0), dot(d, m, y1));
+        // m . y(s) is a sinusoid in s: on an arc shorter than pi it keeps its sign between
+        // ends of the same sign, so the arc does not cross that circle (the usual case for a
+        // curve running alongside the arc: no trigonometry).
+        if g0 * g_end > 0.0 && c < std::f64::consts::PI {
+            continue;
+        }
+        let g1 = dot(d, m, w);
         // g0 cos s + g1 sin s = 0.
         let s0 = (-g0).atan2(g1);
         for k in -2..=2 {
             let s = s0 + k as f64 * std::f64::consts::PI;
             if s > 0.0 && s < c {
                 let (ss, cs) = s.sin_cos();
-                let y: Vec<f64> = (0..dim).map(|x| cs * y0[x] + ss * w[x]).collect();
-                worst = worst.max(frame.distance_dyn(&y));
+                for x in 0..dim {
+                    y[x] = cs * y0[x] + ss * w[x];
+                }
+                worst = worst.max(frame.distance_dyn(y));
             }
         }
     }
     if worst >= 1.0 {
-        return lipschitz;
+        return (lipschitz, worst);
     }
     let bound = (worst.sin() / (0.5 * c).cos()).min(1.0).asin() + ROUNDING_SLACK_RAD;
-    bound.min(lipschitz)
+    (bound.min(lipschitz), worst)
 }
 
 #[cfg(test)]

@@ -5,4 +5,5 @@
 
 pub mod bounds;
 pub mod dense;
+mod polyline;
 pub mod two_way;

@@ -77,6 +77,16 @@ impl std::ops::DerefMut for Coords {
 }
 
 impl ArcFrame {
+    /// sin of the arc's angle.
+    pub(crate) fn sin_theta(&self) -> f64 {
+        self.sin_theta
+    }
+
+    /// cos of the arc's angle.
+    pub(crate) fn cos_theta(&self) -> f64 {
+        self.cos_theta
+    }
+
     /// The arc has (next to) no length: distances are to its start point.
     pub(crate) fn degenerate(&self) -> bool {
         self.theta < DEGENERATE_ARC_RAD

@@ -261,6 +261,14 @@ impl SphericalCurve for SphericalBSpline {
         }
         out
     }
+    fn as_polyline(&self) -> Option<(&[f64], &PointSet)> {
+        // Degree 1: vertex i is C(u_(i+1)), and the curve between two vertices is their
+        // SLERP (one de Boor level). A repeated interior knot would make the curve jump.
+        let n = self.control.len();
+        let params = &self.knots[1..=n];
+        (self.degree == 1 && params.windows(2).all(|w| w[0] < w[1]))
+            .then_some((params, &self.control))
+    }
 }
 
 impl SphericalBSpline {

@@ -31,6 +31,15 @@ pub trait SphericalCurve: Send + Sync {
     /// interior knots, segment joints), ascending. Speed bounds are tightest between them.
     fn breaks(&self) -> Vec<f64>;
 
+    /// The curve as a chain of minor great-circle arcs, when it is one (a degree-1 B-spline):
+    /// the parameter of each vertex (strictly increasing, from the domain's start to its end)
+    /// and the vertices, the curve running from each vertex to the next at constant speed.
+    /// Certified distances then have closed forms instead of subdivision. `None` (the
+    /// default) for any other curve.
+    fn as_polyline(&self) -> Option<(&[f64], &PointSet)> {
+        None
+    }
+
     /// The curve at one parameter.
     fn evaluate_at(&self, t: f64) -> Vec<f64> {
         self.evaluate_many(&[t]).get(0).to_vec()
@@ -100,6 +109,12 @@ impl SphericalCurve for AnyCurve {
         match self {
             AnyCurve::BSpline(s) => s.breaks(),
             AnyCurve::Beta(s) => s.breaks(),
+        }
+    }
+    fn as_polyline(&self) -> Option<(&[f64], &PointSet)> {
+        match self {
+            AnyCurve::BSpline(s) => s.as_polyline(),
+            AnyCurve::Beta(_) => None,
         }
     }
 }
