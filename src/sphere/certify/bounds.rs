@@ -8,7 +8,7 @@
 //! All angles are radians on the unit sphere S^n (any n); nothing here knows about metres.
 
 use crate::sphere::compress::simplify::ArcFrame;
-use crate::sphere::geometry::point::{angle_between, dot, Dynamic};
+use crate::sphere::geometry::point::{angle_between, dot, Dim, Dynamic};
 
 /// Added to every proven bound: the bounds hold in exact arithmetic, and the curve's own
 /// evaluation, the distances and the trigonometry each round at about 1e-16 rad; 1e-12 rad
@@ -142,25 +142,26 @@ pub(crate) fn arc_to_arc_sup(y0: &[f64], y1: &[f64], frame: &ArcFrame) -> f64 {
 }
 
 /// [`arc_to_arc_sup`], and the largest distance to the second arc it measured at points of the
-/// first (so attained: a lower bound of the maximum). Without allocation for points of up to
-/// 16 coordinates: the closed-form two-way distance of a polyline calls it once per arc.
+/// first (so attained: a lower bound of the maximum).
 pub(crate) fn arc_to_arc_sup_attained(y0: &[f64], y1: &[f64], frame: &ArcFrame) -> (f64, f64) {
-    let dim = y0.len();
-    if dim > 16 {
-        let mut buf = vec![0.0; 3 * dim];
-        return arc_to_arc_in(y0, y1, frame, &mut buf);
-    }
-    let mut buf = [0.0; 48];
-    arc_to_arc_in(y0, y1, frame, &mut buf[..3 * dim])
+    let d = Dynamic(y0.len());
+    let ends = (frame.distance_dyn(y0), frame.distance_dyn(y1));
+    arc_to_arc_known(d, y0, y1, angle_between(y0, y1), ends, frame)
 }
 
-/// [`arc_to_arc_sup_attained`] with `buf` (3 × dim) as working space.
-fn arc_to_arc_in(y0: &[f64], y1: &[f64], frame: &ArcFrame, buf: &mut [f64]) -> (f64, f64) {
-    let dim = y0.len();
-    let d = Dynamic(dim);
-    let c = angle_between(y0, y1);
-    let d0 = frame.distance_dyn(y0);
-    let d1 = frame.distance_dyn(y1);
+/// [`arc_to_arc_sup_attained`] with the first arc's angle `c` and its ends' distances to the
+/// second arc already known, in dimension `d`, without allocation for up to 16 coordinates:
+/// the closed-form two-way distance of a polyline calls it once per arc of the curve.
+#[inline]
+pub(crate) fn arc_to_arc_known<D: Dim>(
+    d: D,
+    y0: &[f64],
+    y1: &[f64],
+    c: f64,
+    (d0, d1): (f64, f64),
+    frame: &ArcFrame,
+) -> (f64, f64) {
+    let dim = d.get();
     let ends = d0.max(d1);
     if c < 1e-12 {
         return (ends + c + ROUNDING_SLACK_RAD, ends);
@@ -176,6 +177,14 @@ fn arc_to_arc_in(y0: &[f64], y1: &[f64], frame: &ArcFrame, buf: &mut [f64]) -> (
         };
         return (bound, ends);
     }
+    let mut stack = [0.0; 48];
+    let mut heap = Vec::new();
+    let buf: &mut [f64] = if dim <= 16 {
+        &mut stack[..3 * dim]
+    } else {
+        heap.resize(3 * dim, 0.0);
+        &mut heap
+    };
     let (w, rest) = buf.split_at_mut(dim);
     let (m, y) = rest.split_at_mut(dim);
     // Unit tangent of the first arc at y0: y(s) = cos s y0 + sin s w.

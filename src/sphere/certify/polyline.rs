@@ -14,33 +14,10 @@
 //! the general method (evaluations through the curve trait, speed bounds, sample vectors per
 //! segment) was a third of the fitting time of a coastline dataset.
 
-use super::bounds::arc_to_arc_sup_attained;
-use super::two_way::{arc_to_samples_into, Piece, Samples, Seen};
+use super::bounds::arc_to_arc_known;
+use super::two_way::Piece;
 use crate::sphere::compress::simplify::ArcFrame;
-use crate::sphere::geometry::point::{angle_between, dot, Dynamic, PointSet};
-
-/// Reused between the segments of one job: the chain (as samples of the piece) and the
-/// arc-to-samples working space.
-pub(super) struct Scratch {
-    samples: Samples,
-    seen: Vec<Seen>,
-    bad: Vec<usize>,
-}
-
-impl Scratch {
-    pub(super) fn new(dim: usize) -> Scratch {
-        Scratch {
-            samples: Samples {
-                dim,
-                ts: Vec::new(),
-                pts: Vec::new(),
-                fs: Vec::new(),
-            },
-            seen: Vec::new(),
-            bad: Vec::new(),
-        }
-    }
-}
+use crate::sphere::geometry::point::{angle, Dim, PointSet};
 
 /// One segment's piece, `qa`–`qb` against the curve over `[ta, tb]`.
 pub(super) struct Segment<'a> {
@@ -51,6 +28,9 @@ pub(super) struct Segment<'a> {
     /// C(ta) and C(tb).
     pub(super) ca: &'a [f64],
     pub(super) cb: &'a [f64],
+    /// d(qa, C(ta)) and d(qb, C(tb)) when known (the vertex errors), else `None`.
+    pub(super) ea: Option<f64>,
+    pub(super) eb: Option<f64>,
     /// A further curve sample inside `(ta, tb)` (the first point's own, when its parameter is
     /// past the domain's start).
     pub(super) extra: Option<(f64, &'a [f64])>,
@@ -80,80 +60,78 @@ impl Levels {
 
 /// The bounds of one segment's piece of the polyline curve (`params`, `vertices`: its vertex
 /// parameters and vertices), or `None` when the closed form is not tight there.
-pub(super) fn piece(
+pub(super) fn piece<'a>(
     params: &[f64],
-    vertices: &PointSet,
-    seg: &Segment<'_>,
+    vertices: &'a PointSet,
+    seg: &Segment<'a>,
     levels: &Levels,
-    sc: &mut Scratch,
 ) -> Option<Piece> {
-    let dim = vertices.dim();
-    let frame = ArcFrame::new(Dynamic(dim), seg.qa, seg.qb);
-    let s = &mut sc.samples;
-    s.ts.clear();
-    s.pts.clear();
-    s.fs.clear();
-    // The chain in parameter order: C(ta), the vertices strictly inside (ta, tb) with the
-    // extra sample among them, C(tb).
-    s.push(seg.ta, seg.ca, frame.distance_dyn(seg.ca));
+    crate::with_dim!(vertices.dim(), |d| piece_in(
+        d, params, vertices, seg, levels
+    ))
+}
+
+fn piece_in<'a, D: Dim>(
+    d: D,
+    params: &[f64],
+    vertices: &'a PointSet,
+    seg: &Segment<'a>,
+    levels: &Levels,
+) -> Option<Piece> {
+    let frame = ArcFrame::new(d, seg.qa, seg.qb);
+    if frame.is_antipodal() {
+        return None;
+    }
+    // Curve to arc: the chain in parameter order, C(ta), the vertices strictly inside
+    // (ta, tb) with the extra sample among them, C(tb), one arc at a time.
+    let (mut lower, mut upper1, mut length) = (0.0f64, 0.0f64, 0.0f64);
+    let mut prev: Option<(&[f64], f64)> = None;
+    let mut visit = |p: &'a [f64]| {
+        let f = frame.distance(d, p);
+        lower = lower.max(f);
+        upper1 = upper1.max(f);
+        if let Some((q, fq)) = prev {
+            let c = angle(d, q, p);
+            let (bound, attained) = arc_to_arc_known(d, q, p, c, (fq, f), &frame);
+            upper1 = upper1.max(bound);
+            lower = lower.max(attained);
+            length += c;
+        }
+        prev = Some((p, f));
+    };
+    visit(seg.ca);
     let first = params.partition_point(|&u| u <= seg.ta);
     let last = first + params[first..].partition_point(|&u| u < seg.tb);
     let mut extra = seg.extra.filter(|(t, _)| *t > seg.ta && *t < seg.tb);
     for i in first..last {
-        if let Some((t, p)) = extra.filter(|(t, _)| *t <= params[i]) {
-            s.push(t, p, frame.distance_dyn(p));
+        if let Some((_, p)) = extra.filter(|(t, _)| *t <= params[i]) {
+            visit(p);
             extra = None;
         }
-        let v = vertices.get(i);
-        s.push(params[i], v, frame.distance_dyn(v));
+        visit(vertices.get(i));
     }
-    if let Some((t, p)) = extra {
-        s.push(t, p, frame.distance_dyn(p));
+    if let Some((_, p)) = extra {
+        visit(p);
     }
-    s.push(seg.tb, seg.cb, frame.distance_dyn(seg.cb));
-    let m = s.ts.len();
-    let mut lower = s.fs.iter().copied().fold(0.0, f64::max);
-    let mut upper1 = lower;
-    let mut length = 0.0;
-    for i in 1..m {
-        let (pu, pv) = (s.point(i - 1), s.point(i));
-        let (bound, attained) = arc_to_arc_sup_attained(pu, pv, &frame);
-        upper1 = upper1.max(bound);
-        lower = lower.max(attained);
-        length += angle_between(pu, pv);
-    }
-    let level = levels.level(lower);
-    if upper1 > level && lower <= levels.decide {
-        // Not tight: the general method subdivides.
+    visit(seg.cb);
+    let chain = last - first + 2 + usize::from(seg.extra.is_some());
+    if (upper1 > levels.level(lower) || upper1 >= 1.0) && lower <= levels.decide {
+        // Not tight (or too far for the argument below): the general method subdivides.
         return None;
     }
-    // Arc to curve, as in the general method: the stretch of the arc between the feet of the
-    // piece's ends is within `upper1` of the curve; the rest is bounded by the distance to
-    // the chain's vertices.
-    let foot = |p: &[f64]| -> f64 {
-        let d = Dynamic(dim);
-        let (a, b) = (dot(d, p, &frame.e1), dot(d, p, &frame.e2));
-        b.atan2(a).clamp(0.0, frame.theta)
-    };
-    let (fa, fb) = (foot(seg.ca), foot(seg.cb));
-    let covered = if upper1 < 1.0 {
-        (fa.min(fb), fa.max(fb))
-    } else {
-        (0.0, 0.0)
-    };
-    let mut upper2 = arc_to_samples_into(&frame, s, level, covered, &mut sc.seen, &mut sc.bad);
-    if !sc.bad.is_empty() && lower <= levels.decide {
-        return None;
-    }
-    if covered.1 > covered.0 {
-        upper2 = upper2.max(upper1);
-    }
+    // Arc to curve. As C runs over the piece, its foot on the arc moves continuously from the
+    // foot of C(ta) to that of C(tb) (the piece is within 1 rad of the arc), so every arc
+    // point between them is the foot of a curve point: within `upper1`. The distance from a
+    // point to the arc's points grows away from its foot, so on the arc before the first
+    // foot (after the last) the distance to C(ta) (to C(tb)) is largest at the arc's end.
+    let ea = seg.ea.unwrap_or_else(|| angle(d, seg.qa, seg.ca));
+    let eb = seg.eb.unwrap_or_else(|| angle(d, seg.qb, seg.cb));
     Some(Piece {
         upper1,
-        upper2,
+        upper2: upper1.max(ea).max(eb),
         lower,
         length,
-        evaluations: m,
+        evaluations: chain,
         exhausted: false,
     })
 }

@@ -243,39 +243,39 @@ pub fn two_way_distance(
             (0..n - 1)
                 .into_par_iter()
                 .with_min_len(POLYLINE_SEGMENTS_PER_JOB)
-                .map_init(
-                    || super::polyline::Scratch::new(dim),
-                    |sc, j| {
-                        if stop.load(Ordering::Relaxed) {
-                            return Piece::default();
-                        }
-                        let ta = if j == 0 { lo } else { ts[j] };
-                        let tb = if j + 2 == n { hi } else { ts[j + 1] };
-                        let seg = super::polyline::Segment {
-                            qa: points.get(j),
-                            qb: points.get(j + 1),
-                            ta,
-                            tb,
-                            ca: if ta == ts[j] {
-                                vertex_pts.get(j)
-                            } else {
-                                vertices.get(0)
-                            },
-                            cb: if tb == ts[j + 1] {
-                                vertex_pts.get(j + 1)
-                            } else {
-                                vertices.get(last)
-                            },
-                            extra: (ta != ts[j]).then(|| (ts[j], vertex_pts.get(j))),
-                        };
-                        let piece = super::polyline::piece(vparams, vertices, &seg, &levels, sc)
-                            .unwrap_or_else(|| general(j));
-                        if piece.lower > decide {
-                            stop.store(true, Ordering::Relaxed);
-                        }
-                        piece
-                    },
-                )
+                .map(|j| {
+                    if stop.load(Ordering::Relaxed) {
+                        return Piece::default();
+                    }
+                    let ta = if j == 0 { lo } else { ts[j] };
+                    let tb = if j + 2 == n { hi } else { ts[j + 1] };
+                    let (a_known, b_known) = (ta == ts[j], tb == ts[j + 1]);
+                    let seg = super::polyline::Segment {
+                        qa: points.get(j),
+                        qb: points.get(j + 1),
+                        ta,
+                        tb,
+                        ca: if a_known {
+                            vertex_pts.get(j)
+                        } else {
+                            vertices.get(0)
+                        },
+                        cb: if b_known {
+                            vertex_pts.get(j + 1)
+                        } else {
+                            vertices.get(last)
+                        },
+                        ea: a_known.then_some(errs[j]),
+                        eb: b_known.then_some(errs[j + 1]),
+                        extra: (!a_known).then(|| (ts[j], vertex_pts.get(j))),
+                    };
+                    let piece = super::polyline::piece(vparams, vertices, &seg, &levels)
+                        .unwrap_or_else(|| general(j));
+                    if piece.lower > decide {
+                        stop.store(true, Ordering::Relaxed);
+                    }
+                    piece
+                })
                 .collect()
         }
         None => (0..n - 1).into_par_iter().map(general).collect(),
@@ -362,18 +362,18 @@ const ARC_TO_CURVE_ROUNDS: usize = 24;
 const UNBOUNDED_GIVE_UP_WIDTH: f64 = 1e-6;
 
 /// Samples of one piece: parameters, points (flat) and distances to the piece's arc.
-pub(super) struct Samples {
-    pub(super) dim: usize,
-    pub(super) ts: Vec<f64>,
-    pub(super) pts: Vec<f64>,
-    pub(super) fs: Vec<f64>,
+struct Samples {
+    dim: usize,
+    ts: Vec<f64>,
+    pts: Vec<f64>,
+    fs: Vec<f64>,
 }
 
 impl Samples {
-    pub(super) fn point(&self, i: usize) -> &[f64] {
+    fn point(&self, i: usize) -> &[f64] {
         &self.pts[i * self.dim..(i + 1) * self.dim]
     }
-    pub(super) fn push(&mut self, t: f64, p: &[f64], f: f64) -> usize {
+    fn push(&mut self, t: f64, p: &[f64], f: f64) -> usize {
         self.ts.push(t);
         self.pts.extend_from_slice(p);
         self.fs.push(f);
@@ -614,7 +614,7 @@ fn allowed_parts(l: f64, r: f64, skip: (f64, f64)) -> Vec<(f64, f64)> {
 /// A sample seen from the arc's frame: along-track angle `phi`, and its distance to the arc's
 /// plane as `perp` (sine) and `r` (the in-plane length, cosine).
 #[derive(Clone, Copy)]
-pub(super) struct Seen {
+struct Seen {
     phi: f64,
     r: f64,
     perp: f64,
@@ -654,7 +654,7 @@ fn arc_to_samples(
 }
 
 /// [`arc_to_samples`] with its working space and its `bad` list (cleared first) passed in.
-pub(super) fn arc_to_samples_into(
+fn arc_to_samples_into(
     frame: &ArcFrame,
     s: &Samples,
     level: f64,

@@ -87,6 +87,11 @@ impl ArcFrame {
         self.cos_theta
     }
 
+    /// The end points are (nearly) antipodal: the minor arc is undefined.
+    pub(crate) fn is_antipodal(&self) -> bool {
+        self.antipodal
+    }
+
     /// The arc has (next to) no length: distances are to its start point.
     pub(crate) fn degenerate(&self) -> bool {
         self.theta < DEGENERATE_ARC_RAD
@@ -324,7 +329,11 @@ pub fn douglas_peucker_ordered(points: &PointSet, tolerance_rad: f64) -> Vec<usi
                 let y = dot(d, q, &frame.e2);
                 if y >= 0.0 && rx * y - ry * x >= 0.0 {
                     // Past the chord's end (phi > theta): the reach stops at theta.
-                    (rx, ry) = if ct * y - st * x > 0.0 { (ct, st) } else { (x, y) };
+                    (rx, ry) = if ct * y - st * x > 0.0 {
+                        (ct, st)
+                    } else {
+                        (x, y)
+                    };
                     frame.distance_in_plane(d, q, x, y)
                 } else {
                     let r = rx.hypot(ry);
