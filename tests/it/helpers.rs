@@ -262,7 +262,11 @@ pub fn distance_to_arc(q: &[f64], a: &[f64], b: &[f64]) -> f64 {
     let n = [n[0] / len, n[1] / len, n[2] / len];
     let inside = dot(&cross3(&n, a), q) >= 0.0 && dot(&cross3(b, &n), q) >= 0.0;
     if inside {
-        dot(&n, q).abs().min(1.0).asin().min(ends)
+        // n . (q - a), not n . q: n's direction is only known to about 1e-16 / |a - b| rad, and
+        // n . a is zero only to that; against q - a (no longer than the arc for the q that
+        // matter) the error stays at rounding.
+        let qa = [q[0] - a[0], q[1] - a[1], q[2] - a[2]];
+        dot(&n, &qa).abs().min(1.0).asin().min(ends)
     } else {
         ends
     }

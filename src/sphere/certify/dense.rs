@@ -82,12 +82,25 @@ pub fn sample_within_budget(
     let (lo, hi) = curve.domain();
     let mut ts = even_parameters((lo, hi), start.clamp(2, max_points));
     let breaks = curve.breaks();
-    if ts.len() + breaks.len() <= max_points {
+    let all_breaks = ts.len() + breaks.len() <= max_points;
+    if all_breaks {
         ts.extend(breaks);
         ts.sort_by(f64::total_cmp);
         ts.dedup();
     }
     let dim = curve.dim();
+    if all_breaks && curve.as_polyline().is_some() {
+        // Every chord is a stretch of one of the curve's great-circle arcs: nothing to prove
+        // beyond the rounding of the evaluated points.
+        let points = curve.evaluate_many(&ts);
+        let evaluations = ts.len();
+        return DenseSamples {
+            params: ts,
+            points,
+            deviation_rad: ROUNDING_SLACK_RAD,
+            evaluations,
+        };
+    }
     let mut pts = curve.evaluate_many(&ts).as_flat().to_vec();
     let mut evaluations = ts.len();
     // Chords waiting for a verdict, as indices of their start in (ts, pts); accepted chords
