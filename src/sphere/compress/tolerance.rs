@@ -1424,6 +1424,10 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         if !self.free {
             return;
         }
+        if self.p() == 1 {
+            self.correct_range_polyline(j0, j1);
+            return;
+        }
         let n = self.points.len();
         let dim = self.d.get();
         for j in j0.max(1)..j1.min(n - 1) {
@@ -1511,6 +1515,75 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             }
             self.params[j] = t;
             self.err[j] = e;
+        }
+    }
+
+    /// [`correct_range`](Self::correct_range) for a polyline: the foot point on the arc of the
+    /// span holding the parameter, in closed form (the arc's along-track angle over its
+    /// length), instead of Newton steps with finite differences (three curve evaluations per
+    /// point, a sixth of a coastline's fitting time). A foot beyond the span's end stops at
+    /// its vertex; the next correction carries on from the next span. Kept non-decreasing
+    /// and only where it lowers the point's error, as the Newton steps are.
+    fn correct_range_polyline(&mut self, j0: usize, j1: usize) {
+        let n = self.points.len();
+        let d = self.d;
+        let last = self.last_span();
+        let mut k = 1;
+        for j in j0.max(1)..j1.min(n - 1) {
+            let e = self.err[j];
+            if e == 0.0 {
+                continue;
+            }
+            let (lo, hi) = (self.params[j - 1], self.params[j + 1]);
+            let t = self.params[j];
+            if !(self.knots[k] <= t && (t < self.knots[k + 1] || k == last)) {
+                k = self
+                    .knots
+                    .partition_point(|&u| u <= t)
+                    .saturating_sub(1)
+                    .clamp(1, last);
+            }
+            let q = self.points.get(j);
+            // The foot on span k's arc, as (parameter, where it fell: -1 before the arc's
+            // start, 1 past its end, 0 on it).
+            let foot = |k: usize| -> Option<(f64, i8)> {
+                let (u0, u1) = (self.knots[k], self.knots[k + 1]);
+                let arc = ArcFrame::new(d, self.ctrl.get(k - 1), self.ctrl.get(k));
+                if arc.degenerate() || arc.is_antipodal() || u1 <= u0 {
+                    return None;
+                }
+                let phi = dot(d, q, &arc.e2).atan2(dot(d, q, &arc.e1));
+                let alpha = phi / arc.theta;
+                let side = if alpha < 0.0 {
+                    -1
+                } else if alpha > 1.0 {
+                    1
+                } else {
+                    0
+                };
+                Some((u0 + alpha.clamp(0.0, 1.0) * (u1 - u0), side))
+            };
+            let Some((mut tn, side)) = foot(k) else {
+                continue;
+            };
+            // Past a vertex: the foot may lie on the next arc (or the one before).
+            let next = match side {
+                1 if k < last => foot(k + 1),
+                -1 if k > 1 => foot(k - 1),
+                _ => None,
+            };
+            if let Some((tn2, 0)) = next {
+                tn = tn2;
+            }
+            let tn = tn.clamp(lo, hi);
+            if tn == t {
+                continue;
+            }
+            let en = self.error_at(j, tn);
+            if en < e {
+                self.params[j] = tn;
+                self.err[j] = en;
+            }
         }
     }
 
