@@ -1025,7 +1025,13 @@ fn polyline_in_pieces<D: Dim, G: Degree>(
             );
             let params = parameters(&sub, options.parameterization).ok()?;
             let n = sub.len();
-            let mut f = Fitter::seeded(d, g, &sub, &params, true, target, n, &piece_options)?;
+            // The whole line's seed between the junctions: its chords are the piece's, so it
+            // keeps the piece's points in order within the target as it does the line's (and
+            // the piece needs no Douglas–Peucker of its own).
+            let from = seed.partition_point(|&i| i < a);
+            let to = seed.partition_point(|&i| i <= b);
+            let kept: Vec<usize> = seed[from..to].iter().map(|&i| i - a).collect();
+            let mut f = Fitter::from_kept(d, g, &sub, &params, true, &kept, n, &piece_options)?;
             f.reweight = options.reweight;
             f.refine(target, n);
             let max = f.max_error();
@@ -1248,6 +1254,23 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         } else {
             douglas_peucker(points, target * factor)
         };
+        Self::from_kept(d, g, points, base_params, free, &kept, cap, options)
+    }
+
+    /// [`seeded`](Self::seeded) from the vertices `kept` (ascending, the first and the last
+    /// point among them) of a Douglas–Peucker polyline already computed.
+    #[allow(clippy::too_many_arguments)]
+    fn from_kept(
+        d: D,
+        g: G,
+        points: &'a PointSet,
+        base_params: &[f64],
+        free: bool,
+        kept: &[usize],
+        cap: usize,
+        options: &ToleranceOptions,
+    ) -> Option<Self> {
+        let p = g.get();
         let last = points.len() - 1;
         let mut vertices = vec![0];
         let mut interior: Vec<f64> = Vec::with_capacity(kept.len());
