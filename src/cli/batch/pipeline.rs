@@ -163,9 +163,9 @@ pub fn process(
         Body::Feature { raw, pointer } => match serde_json::from_str::<Value>(raw.get()) {
             Ok(value) => out.add(guarded(|| process_feature(&value, &pointer, job)), &label),
             // The reader checked the syntax; what is left is a number out of range.
-            Err(e) => out
-                .errors
-                .push(format!("{label}: invalid JSON at {pointer}: {e}")),
+            Err(e) => out.errors.push(format!(
+                "{label}: invalid JSON at {pointer}: {e} (in the feature's text)"
+            )),
         },
     }
     out
