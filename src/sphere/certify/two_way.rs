@@ -28,8 +28,12 @@
 //! along the arc, so the largest distance to the sample set is bounded exactly; where it is too
 //! high, curve samples are added nearby. The proofs are in `docs/certified-distance.md`.
 //!
+//! A curve that is a chain of great-circle arcs (a degree-1 B-spline,
+//! [`SphericalCurve::as_polyline`]) is bounded in closed form instead, arc by arc
+//! (`certify::polyline`), and only segments where that is not tight go the general way.
+//!
 //! Cost: about (curve length / D) · log(D / precision) curve evaluations, in parallel over the
-//! polyline's segments.
+//! polyline's segments; for a polyline curve, a few arc-to-arc bounds per segment.
 
 use super::bounds::{arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD};
 use crate::sphere::compress::simplify::ArcFrame;

@@ -99,6 +99,9 @@
 //! * The uniform-knot search stops a fit whose last pass's gain, kept up for every pass left,
 //!   would not reach the target.
 //! * The polyline fallbacks are only built when the search found nothing.
+//! * Polyline foot points in closed form (the along-track angle on the span's arc); the
+//!   two-way checks of polylines in closed form ([`crate::sphere::two_way`]); the pieces of a
+//!   long line seeded from the whole line's Douglas–Peucker, not one each.
 //!
 //! `scripts/speed_bench.sh` measures whole datasets against mapshaper, and
 //! `scripts/callgrind_bench.sh` counts instructions (stable on a shared machine).
