@@ -121,8 +121,8 @@ use crate::sphere::fit::knots::{
 };
 use crate::sphere::fit::metrics::{measure, ErrorMetrics};
 use crate::sphere::geometry::point::{
-    angle, angle_from_chords, diff_sum_sq, dot, exp_in_place, slerp, Dim, PointSet,
-    SERIES_ANGLE_MAX_RAD,
+    angle, angle_from_chords, angle_from_sine, diff_sum_sq, dot, exp_in_place, slerp, Dim,
+    PointSet, SERIES_ANGLE_MAX_RAD,
 };
 use crate::sphere::linalg::banded::{BandCholesky, SymmetricBand};
 use crate::sphere::SphereError;
@@ -1571,43 +1571,57 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             }
             let q = self.points.get(j);
             // The foot on span k's arc, as (parameter, where it fell: -1 before the arc's
-            // start, 1 past its end, 0 on it).
-            let foot = |k: usize| -> Option<(f64, i8)> {
+            // start, 1 past its end, 0 on it, and then the point's distance to it).
+            let foot = |k: usize| -> Option<(f64, i8, f64)> {
                 let (u0, u1) = (self.knots[k], self.knots[k + 1]);
                 let arc = ArcFrame::new(d, self.ctrl.get(k - 1), self.ctrl.get(k));
                 if arc.degenerate() || arc.is_antipodal() || u1 <= u0 {
                     return None;
                 }
-                let phi = dot(d, q, &arc.e2).atan2(dot(d, q, &arc.e1));
-                let alpha = phi / arc.theta;
-                let side = if alpha < 0.0 {
-                    -1
-                } else if alpha > 1.0 {
-                    1
-                } else {
-                    0
-                };
-                Some((u0 + alpha.clamp(0.0, 1.0) * (u1 - u0), side))
+                let (x, y) = (dot(d, q, &arc.e1), dot(d, q, &arc.e2));
+                let alpha = y.atan2(x) / arc.theta;
+                if alpha < 0.0 {
+                    return Some((u0, -1, f64::NAN));
+                }
+                if alpha > 1.0 {
+                    return Some((u1, 1, f64::NAN));
+                }
+                // The curve point at the foot is q's projection on the arc's great circle:
+                // the error there is the cross-track distance, asin |q - x e1 - y e2|.
+                let mut perp_sq = 0.0;
+                for c in 0..d.get() {
+                    let r = q[c] - x * arc.e1[c] - y * arc.e2[c];
+                    perp_sq += r * r;
+                }
+                let dist = angle_from_sine(perp_sq.sqrt());
+                Some((u0 + alpha * (u1 - u0), 0, dist))
             };
-            let Some((mut tn, side)) = foot(k) else {
+            let Some(mut best) = foot(k) else {
                 continue;
             };
             // Past a vertex: the foot may lie on the next arc (or the one before).
-            let next = match side {
+            let next = match best.1 {
                 1 if k < last => foot(k + 1),
                 -1 if k > 1 => foot(k - 1),
                 _ => None,
             };
-            if let Some((tn2, 0)) = next {
-                tn = tn2;
+            if let Some(f @ (_, 0, _)) = next {
+                best = f;
             }
-            let tn = tn.clamp(lo, hi);
-            if tn == t {
+            let (tn, side, dist) = best;
+            let clamped = tn.clamp(lo, hi);
+            if clamped == t {
                 continue;
             }
-            let en = self.error_at(j, tn);
+            // On the arc and not held back by a neighbour's parameter: the distance is known
+            // (evaluating the curve there gives the same to rounding); otherwise measure.
+            let en = if side == 0 && clamped == tn && dist < 0.1 {
+                dist
+            } else {
+                self.error_at(j, clamped)
+            };
             if en < e {
-                self.params[j] = tn;
+                self.params[j] = clamped;
                 self.err[j] = en;
             }
         }
