@@ -1579,7 +1579,15 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     return None;
                 }
                 let (x, y) = (dot(d, q, &arc.e1), dot(d, q, &arc.e2));
-                let alpha = y.atan2(x) / arc.theta;
+                // The along-track angle atan2(y, x), by its sine where it is small (a point
+                // near a short arc), without libm's atan2.
+                let r = (x * x + y * y).sqrt();
+                let phi = if x > 0.0 && y.abs() <= 0.1 * r {
+                    angle_from_sine(y.abs() / r).copysign(y)
+                } else {
+                    y.atan2(x)
+                };
+                let alpha = phi / arc.theta;
                 if alpha < 0.0 {
                     return Some((u0, -1, f64::NAN));
                 }
