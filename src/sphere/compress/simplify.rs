@@ -336,7 +336,7 @@ pub fn douglas_peucker_ordered(points: &PointSet, tolerance_rad: f64) -> Vec<usi
                     };
                     frame.distance_in_plane(d, q, x, y)
                 } else {
-                    let r = rx.hypot(ry);
+                    let r = (rx * rx + ry * ry).sqrt();
                     let (c, s) = (rx / r, ry / r);
                     for k in 0..d.get() {
                         at_reach[k] = c * frame.e1[k] + s * frame.e2[k];
