@@ -232,8 +232,30 @@ pub(crate) fn arc_to_arc_known<D: Dim>(
     if worst >= 1.0 {
         return (lipschitz, worst);
     }
-    let bound = (worst.sin() / (0.5 * c).cos()).min(1.0).asin() + ROUNDING_SLACK_RAD;
+    let bound = asin_of_sine_over_cos_half(worst, c) + ROUNDING_SLACK_RAD;
     (bound.min(lipschitz), worst)
+}
+
+/// asin(sin(a) / cos(c / 2)) (at most pi/2), with the series of [`crate::sphere::geometry`]
+/// where the angles are small (the usual case: a curve within a tolerance of a short arc),
+/// libm beyond; exact to rounding either way.
+#[inline]
+fn asin_of_sine_over_cos_half(a: f64, c: f64) -> f64 {
+    use crate::sphere::geometry::point::{angle_from_sine, sinc_series, SERIES_ANGLE_MAX_RAD};
+    let sin_a = if a <= SERIES_ANGLE_MAX_RAD {
+        a * sinc_series(a)
+    } else {
+        a.sin()
+    };
+    let quarter = 0.25 * c;
+    let cos_half = if quarter <= SERIES_ANGLE_MAX_RAD {
+        // cos(c / 2) = 1 - 2 sin^2(c / 4).
+        let s = quarter * sinc_series(quarter);
+        1.0 - 2.0 * s * s
+    } else {
+        (0.5 * c).cos()
+    };
+    angle_from_sine((sin_a / cos_half).min(1.0))
 }
 
 #[cfg(test)]
