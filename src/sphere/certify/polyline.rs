@@ -49,12 +49,7 @@ pub(super) struct Levels {
 
 impl Levels {
     fn level(&self, lower: f64) -> f64 {
-        let measured = self.level0.max(lower) + self.eps;
-        if self.decide.is_finite() {
-            measured.max(self.decide)
-        } else {
-            measured
-        }
+        super::two_way::acceptance_level(self.level0, self.eps, self.decide, lower)
     }
 }
 

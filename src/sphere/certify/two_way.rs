@@ -589,9 +589,15 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
 /// The level below which an interval's bound is accepted: the best lower bound plus the
 /// precision when measuring, or the decision level when that is higher.
 fn level_for(inp: &PieceInput<'_>, lower: f64) -> f64 {
-    let measured = inp.level0.max(lower) + inp.eps;
-    if inp.decide.is_finite() {
-        measured.max(inp.decide)
+    acceptance_level(inp.level0, inp.eps, inp.decide, lower)
+}
+
+/// [`level_for`] from its parts: the largest vertex error `level0`, the precision `eps`, the
+/// decision level `decide` (infinite when measuring) and the best lower bound so far.
+pub(super) fn acceptance_level(level0: f64, eps: f64, decide: f64, lower: f64) -> f64 {
+    let measured = level0.max(lower) + eps;
+    if decide.is_finite() {
+        measured.max(decide)
     } else {
         measured
     }
@@ -651,22 +657,7 @@ fn arc_to_samples(
     level: f64,
     skip: (f64, f64),
 ) -> (f64, Vec<usize>) {
-    let mut seen = Vec::new();
     let mut bad = Vec::new();
-    let sup = arc_to_samples_into(frame, s, level, skip, &mut seen, &mut bad);
-    (sup, bad)
-}
-
-/// [`arc_to_samples`] with its working space and its `bad` list (cleared first) passed in.
-fn arc_to_samples_into(
-    frame: &ArcFrame,
-    s: &Samples,
-    level: f64,
-    skip: (f64, f64),
-    seen: &mut Vec<Seen>,
-    bad: &mut Vec<usize>,
-) -> f64 {
-    bad.clear();
     let dim = s.dim;
     let d = Dynamic(dim);
     if frame.degenerate() {
@@ -681,9 +672,9 @@ fn arc_to_samples_into(
         if best > level {
             bad.push(at);
         }
-        return best + ROUNDING_SLACK_RAD;
+        return (best + ROUNDING_SLACK_RAD, bad);
     }
-    seen.clear();
+    let mut seen: Vec<Seen> = Vec::with_capacity(s.ts.len());
     seen.extend((0..s.ts.len()).map(|i| {
         let c = s.point(i);
         let a = dot(d, c, &frame.e1);
@@ -717,7 +708,7 @@ fn arc_to_samples_into(
             dist_from_arc_point(&first, l),
             &[first.index],
             &mut sup,
-            bad,
+            &mut bad,
         );
     }
     for w in seen.windows(2) {
@@ -742,16 +733,21 @@ fn arc_to_samples_into(
             } else {
                 dk.min(dk2)
             };
-            note(v, &[k.index, k2.index], &mut sup, bad);
+            note(v, &[k.index, k2.index], &mut sup, &mut bad);
         }
     }
     let last = seen[seen.len() - 1];
     for (_, r) in allowed_parts(last.phi.max(0.0), theta, skip) {
-        note(dist_from_arc_point(&last, r), &[last.index], &mut sup, bad);
+        note(
+            dist_from_arc_point(&last, r),
+            &[last.index],
+            &mut sup,
+            &mut bad,
+        );
     }
     bad.sort_unstable();
     bad.dedup();
-    sup + ROUNDING_SLACK_RAD
+    (sup + ROUNDING_SLACK_RAD, bad)
 }
 
 #[cfg(test)]
