@@ -90,14 +90,21 @@ pub fn sample_within_budget(
     }
     let dim = curve.dim();
     if all_breaks && curve.as_polyline().is_some() {
-        // Every chord is a stretch of one of the curve's great-circle arcs: nothing to prove
-        // beyond the rounding of the evaluated points.
+        // Every chord is a stretch of one of the curve's great-circle arcs, run at constant
+        // speed: the ellipse bound with the curve's length equal to the chord leaves only the
+        // rounding slack of the points and of measuring against a short chord.
         let points = curve.evaluate_many(&ts);
         let evaluations = ts.len();
+        let deviation_rad = (1..ts.len())
+            .map(|i| {
+                let c = angle_between(points.get(i - 1), points.get(i));
+                ellipse_deviation(c, c)
+            })
+            .fold(ROUNDING_SLACK_RAD, f64::max);
         return DenseSamples {
             params: ts,
             points,
-            deviation_rad: ROUNDING_SLACK_RAD,
+            deviation_rad,
             evaluations,
         };
     }
