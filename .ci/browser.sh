@@ -21,8 +21,10 @@ if ! command -v node >/dev/null 2>&1; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
 fi
-echo "== npm ci (tests/browser: playwright-core, topojson-client, world-atlas)"
-npm ci --prefix tests/browser --no-audit --no-fund --loglevel=error
+if [ -z "${SPHEREFIT_CI_PREFETCHED:-}" ]; then
+  echo "== npm ci (tests/browser: playwright-core, topojson-client, world-atlas)"
+  npm ci --prefix tests/browser --no-audit --no-fund --loglevel=error
+fi
 
 echo "== the basemap is what scripts/land_geojson.mjs makes"
 WORK="$(mktemp -d)"

@@ -84,9 +84,9 @@
 //! (the bench prints the times). What keeps it linear: a removal saves and undoes only its
 //! window, in buffers kept between removals; a polyline removal with a point two tolerances
 //! from the replacing chord is not refitted; a removal that failed is retried in a later sweep
-//! only where a removal since changed its neighbourhood; a line of 4,096 or more seed vertices
-//! is cut into pieces at pinned seed vertices, fitted in parallel (shifting the vertices behind
-//! a removal was quadratic in the line). What keeps it fast on real lines:
+//! only where a removal since changed its neighbourhood; a line of 1,024 or more seed vertices
+//! is cut into pieces of about 512 at pinned seed vertices (sharp corners), fitted in parallel
+//! (shifting the vertices behind a removal, and back when it fails, grows with the line). What keeps it fast on real lines:
 //! * **A degree probe.** Degrees 2 and 3 are tried only when the best polyline bends the way a
 //!   smooth curve does: two thirds or more of its neighbouring turns bend the same way (bends
 //!   of three or more vertices between inflections). Coastlines and GPS tracks at small
@@ -971,7 +971,29 @@ fn fit_degree<D: Dim, G: Degree>(
 
 /// Seed vertices per piece of [`polyline_in_pieces`]; a line whose seed has fewer than twice
 /// this many is fitted whole.
-const PIECE_VERTICES: usize = 2048;
+const PIECE_VERTICES: usize = 512;
+
+/// Seed vertices on each side of a nominal junction of [`polyline_in_pieces`] among which the
+/// sharpest corner is taken.
+const JUNCTION_REACH: usize = 32;
+
+/// The cosine of the turn at `b` between the chords `a`–`b` and `b`–`c` (1 straight on, −1 a
+/// full reversal); 1 where a chord has no length.
+fn straightness(points: &PointSet, a: usize, b: usize, c: usize) -> f64 {
+    let (pa, pb, pc) = (points.get(a), points.get(b), points.get(c));
+    let (mut uv, mut uu, mut vv) = (0.0, 0.0, 0.0);
+    for x in 0..pa.len() {
+        let (u, v) = (pb[x] - pa[x], pc[x] - pb[x]);
+        uv += u * v;
+        uu += u * u;
+        vv += v * v;
+    }
+    if uu > 0.0 && vv > 0.0 {
+        uv / (uu * vv).sqrt()
+    } else {
+        1.0
+    }
+}
 
 /// The degree-1 fit (seed, refinement, knot removal) of a long line, in pieces fitted in
 /// parallel: `None` when the line is too short to cut.
@@ -984,8 +1006,15 @@ const PIECE_VERTICES: usize = 2048;
 /// each removal's bookkeeping (shifting the vertices behind it) is bounded by a piece and the
 /// pieces run on all threads. The 81,341-point outline of Afro-Eurasia at 100 m
 /// (`spherefit fit --tolerance-m 100`, the whole command): 0.74–0.78 s whole on one thread,
-/// 0.65 s in pieces on one thread and 0.44 s on two; at most 0.4 % more numbers on the
-/// compression bench's long lines.
+/// 0.65 s in pieces of 2,048 on one thread and 0.44 s on two.
+///
+/// Each junction is the sharpest corner among the seed vertices within [`JUNCTION_REACH`] of
+/// every [`PIECE_VERTICES`]-th: a vertex the line turns hard at is kept by any fit, so pinning
+/// it loses nothing. Measured (`scripts/callgrind_bench.sh`, `scripts/compression_bench.sh`):
+/// pieces of 2,048 at every 2,048th vertex: every 12th 10m land ring 1.383 G instructions,
+/// noisy track at 5 m 2,717 numbers; of 512 at every 512th: 1.301 G, 2,745 (+1.0 %); of 512
+/// at sharp corners: 1.302 G, 2,709 (no other row of the compression bench moved); of 256:
+/// 1.285 G, but the 10m border at 100 m stores 2 more numbers.
 ///
 /// The pieces' polylines join into one on uniform knots: piece k's local parameter t of its
 /// m_k vertices maps to (o_k + t (m_k − 1)) / (M − 1), o_k being the segments before it and M
@@ -1002,15 +1031,26 @@ fn polyline_in_pieces<D: Dim, G: Degree>(
     if seed.len() < 2 * PIECE_VERTICES {
         return None;
     }
-    let mut junctions: Vec<usize> = seed.iter().copied().step_by(PIECE_VERTICES).collect();
+    // Every PIECE_VERTICES-th seed vertex, moved to the sharpest corner near it: a vertex the
+    // line turns hard at stays in any fit, so pinning it there costs nothing.
     let last = points.len() - 1;
-    if junctions.last() != Some(&last) {
-        // The last piece takes the remainder (at least PIECE_VERTICES seed vertices).
-        if seed.len() % PIECE_VERTICES != 1 {
-            junctions.pop();
-        }
-        junctions.push(last);
+    let mut junctions: Vec<usize> = vec![0];
+    let mut k = PIECE_VERTICES;
+    while k + PIECE_VERTICES < seed.len() {
+        let (lo, hi) = (k - JUNCTION_REACH, k + JUNCTION_REACH);
+        let sharpest = (lo..=hi)
+            .min_by(|&a, &b| {
+                let (ta, tb) = (
+                    straightness(points, seed[a - 1], seed[a], seed[a + 1]),
+                    straightness(points, seed[b - 1], seed[b], seed[b + 1]),
+                );
+                ta.total_cmp(&tb)
+            })
+            .unwrap_or(k);
+        junctions.push(seed[sharpest]);
+        k += PIECE_VERTICES;
     }
+    junctions.push(last);
     let dim = d.get();
     let cancel = crate::sphere::cancel::current();
     let piece_options = ToleranceOptions {

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# One install of what CI's tests need, by name; .ci/run starts them all in the background at
+# its start. Each is also done (or checked) by the step that uses it, so the step scripts still
+# work on their own; after a prefetch they find it in place.
+#
+#   bash .ci/prefetch.sh debian|npm-coverage|npm-browser|schemathesis|python-venv
+set -euo pipefail
+cd "$(dirname "$0")/.."
+SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+# npm comes from Debian where the machine has none: the npm installs wait for it (10 min).
+need_node() {
+  for _ in $(seq 600); do command -v npm >/dev/null 2>&1 && return 0; sleep 1; done
+  echo "npm not found" >&2; return 1
+}
+
+case "$1" in
+  debian)
+    # One apt-get for every Debian package (apt holds a lock: two at once would wait).
+    pkgs=()
+    command -v ogrinfo >/dev/null 2>&1 || pkgs+=(gdal-bin)
+    [ -x /usr/bin/chromium ] || pkgs+=(chromium)
+    command -v java >/dev/null 2>&1 || pkgs+=(openjdk-17-jre-headless)
+    command -v node >/dev/null 2>&1 || pkgs+=(nodejs npm)
+    if [ "${#pkgs[@]}" -gt 0 ]; then
+      echo "apt-get install ${pkgs[*]}"
+      $SUDO apt-get update -qq
+      DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${pkgs[@]}" >/dev/null
+    fi
+    ;;
+  npm-coverage)
+    need_node
+    if [ ! -x scripts/coverage/node_modules/.bin/mapshaper ]; then
+      npm ci --silent --no-audit --no-fund --prefix scripts/coverage >/dev/null
+    fi
+    ;;
+  npm-browser)
+    need_node
+    npm ci --prefix tests/browser --no-audit --no-fund --loglevel=error
+    ;;
+  schemathesis)
+    if ! command -v schemathesis >/dev/null 2>&1; then
+      python3 -m pip install --quiet --disable-pip-version-check 'schemathesis==4.32.5'
+    fi
+    ;;
+  python-venv)
+    venv=target/py-venv
+    [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+    "$venv/bin/pip" install -q --disable-pip-version-check -r python/requirements-test.txt
+    ;;
+  *)
+    echo "unknown install: $1" >&2
+    exit 2
+    ;;
+esac
