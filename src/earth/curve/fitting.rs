@@ -383,16 +383,28 @@ pub fn fit_line_to_tolerance(
             r.spline.clone()
         };
         let (spline, control_ll) = round_spline(&spline, output.precision).map_err(fit_err)?;
-        // The two-way distance of the curve as returned (rounded, and closed for a ring).
-        let tw = two_way_distance(
-            &spline,
-            &points,
-            &r.parameters,
-            &TwoWayOptions::default()
-                .with_precision_rad(REPORT_TWO_WAY_PRECISION * tol_rad)
-                .with_max_evaluations(4_000_000 + 400 * points.len()),
-        )
-        .map_err(fit_err)?;
+        // The two-way distance of the curve as returned (rounded, and closed for a ring): the
+        // fitter's own bound moved by the rounding where that is proven and tight enough,
+        // else measured afresh.
+        let report_precision = REPORT_TWO_WAY_PRECISION * tol_rad;
+        let tw = match moved_polyline_bound(&r, &spline, report_precision) {
+            Some(tw) => tw,
+            None => {
+                let tw = two_way_distance(
+                    &spline,
+                    &points,
+                    &r.parameters,
+                    &TwoWayOptions::default()
+                        .with_precision_rad(report_precision)
+                        .with_max_evaluations(4_000_000 + 400 * points.len()),
+                )
+                .map_err(fit_err)?;
+                ReportedTwoWay {
+                    upper_rad: tw.upper_rad,
+                    curve_length_rad: tw.curve_length_rad,
+                }
+            }
+        };
         let input_len = polyline_length(&points);
         let length_ratio = if input_len > 0.0 {
             tw.curve_length_rad / input_len
@@ -461,6 +473,74 @@ pub fn fit_line_to_tolerance(
         out.report.stored_numbers = stored;
         return Ok(out);
     }
+}
+
+/// The two-way distance reported for a fitted curve, and the curve's length.
+struct ReportedTwoWay {
+    upper_rad: f64,
+    curve_length_rad: f64,
+}
+
+/// The two-way distance of `finished` (the fitter's polyline `r.spline` with its vertices
+/// moved: rounded, and the ring's seam closed) from the fitter's own bound, without measuring
+/// again: `None` unless both are polylines on the same knots, the bound so found is within
+/// `precision` of the true distance (the fitter's bound close enough to a distance it
+/// attained: a measurement, not only a decision), and every segment of both, lengthened by
+/// its ends' moves, is at most a quarter turn. On the 10m land outlines at 100 m every ring
+/// takes this path, and the bound is 1.6–4.4 cm above a fresh measurement.
+///
+/// Why it holds: the distance is the largest Hausdorff distance between an input segment and
+/// the curve over that segment's parameters, and at every parameter the two curves are
+/// SLERPs at the same fraction α of arcs AB and A'B'. Moving one end (A to A', B fixed)
+/// moves the point at fraction α by at most 3·d(A, A') on arcs of at most a quarter turn: by
+/// the triangle inequality, the points at the same distance s along BA and along BA' are
+/// 2·asin(sin s · sin(φ/2)) apart (φ the angle at B), which is at most its value at the arc's
+/// full length, d(A, A'') ≤ d(A, A') + |BA − BA'| ≤ 2·d(A, A') (A'' on BA' at A's distance);
+/// the two fractions' distances differ by at most |BA − BA'| ≤ d(A, A'). So every point
+/// moves by at most 3·(d(A, A') + d(B, B')), and by the triangle inequality the Hausdorff
+/// distance of each piece, and so the bound, grows by at most the largest such move.
+fn moved_polyline_bound(
+    r: &crate::sphere::ToleranceFit,
+    finished: &SphericalBSpline,
+    precision: f64,
+) -> Option<ReportedTwoWay> {
+    let (a, b) = (&r.spline, finished);
+    if a.degree() != 1 || b.degree() != 1 || a.knots() != b.knots() {
+        return None;
+    }
+    let (pa, pb) = (a.control_points(), b.control_points());
+    if pa.len() != pb.len() || pa.len() < 2 {
+        return None;
+    }
+    let quarter = std::f64::consts::FRAC_PI_2;
+    let mut moved: f64 = 0.0;
+    let mut length = 0.0;
+    let mut shift_prev = angle_between(pa.get(0), pb.get(0));
+    for i in 1..pa.len() {
+        let shift = angle_between(pa.get(i), pb.get(i));
+        let (before, after) = (
+            angle_between(pa.get(i - 1), pa.get(i)),
+            angle_between(pb.get(i - 1), pb.get(i)),
+        );
+        // Both arcs, and the one between the steps (A' to B), within a quarter turn.
+        if before.max(after) + shift_prev + shift > quarter {
+            return None;
+        }
+        moved = moved.max(3.0 * (shift_prev + shift));
+        length += after;
+        shift_prev = shift;
+    }
+    // The angles above are each good to a few units in the last place.
+    let moved = moved + 1e-14;
+    // The true distance of `finished` is at least the attained one less the move, so the
+    // bound below stays within `precision` of it, as a measurement would.
+    if r.two_way_rad - r.two_way_lower_rad + 2.0 * moved > precision {
+        return None;
+    }
+    Some(ReportedTwoWay {
+        upper_rad: r.two_way_rad + moved,
+        curve_length_rad: length,
+    })
 }
 
 /// A fit in time whose two-way distance exceeds this many times its max error (at least
@@ -538,4 +618,82 @@ pub(crate) fn tolerance_target_rad(tol_rad: f64, precision: u32) -> f64 {
         target -= dense_margin;
     }
     target
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sphere::{fit_to_tolerance, PointSet, ToleranceOptions};
+
+    /// A jagged coastline-like line of lon/lat points, as unit vectors.
+    fn jagged(n: usize) -> PointSet {
+        let rows: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let x = i as f64;
+                let lon = 10.0 + 0.01 * x + 0.004 * (x * 1.7).sin();
+                let lat = 45.0 + 0.006 * (x * 0.9).cos() + 0.003 * ((x * 3.1).sin()).signum();
+                lonlat_to_unit(lon, lat)
+            })
+            .collect();
+        PointSet::try_from_rows(&rows).expect("unit vectors")
+    }
+
+    #[test]
+    fn a_moved_polyline_keeps_a_proven_bound_within_the_precision() {
+        let points = jagged(400);
+        let tol = m_to_rad(100.0);
+        let r = fit_to_tolerance(
+            &points,
+            None,
+            tol,
+            &ToleranceOptions::default().with_degrees(&[1]),
+        )
+        .expect("fits");
+        assert_eq!(r.spline.degree(), 1);
+        let precision = REPORT_TWO_WAY_PRECISION * tol;
+        // Rounded to 7 decimals (about a centimetre) and to 5 (about a metre): the bound moves
+        // with the vertices, and stays above every distance the moved curve attains.
+        for decimals in [7, 5] {
+            let (moved, _) = round_spline(&r.spline, decimals).expect("rounds");
+            let Some(reused) = moved_polyline_bound(&r, &moved, precision) else {
+                assert_eq!(decimals, 5, "a centimetre's rounding keeps the bound");
+                continue;
+            };
+            let fresh = two_way_distance(
+                &moved,
+                &points,
+                &r.parameters,
+                &TwoWayOptions::default().with_precision_rad(1e-4 * tol),
+            )
+            .expect("measures");
+            assert!(reused.upper_rad >= fresh.upper_rad - 1e-4 * tol);
+            assert!(reused.upper_rad >= fresh.lower_rad);
+            assert!(reused.upper_rad <= fresh.lower_rad + precision);
+            assert!((reused.curve_length_rad - fresh.curve_length_rad).abs() <= 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_moved_curve_on_other_knots_or_degrees_is_measured_again() {
+        let points = jagged(200);
+        let tol = m_to_rad(50.0);
+        let r = fit_to_tolerance(
+            &points,
+            None,
+            tol,
+            &ToleranceOptions::default().with_degrees(&[1]),
+        )
+        .expect("fits");
+        let precision = REPORT_TWO_WAY_PRECISION * tol;
+        let other = SphericalBSpline::try_new(
+            1,
+            crate::sphere::curve::bspline::clamped_uniform_knots(3, 1),
+            PointSet::try_from_rows(
+                &[points.get(0), points.get(100), points.get(199)].map(|p| [p[0], p[1], p[2]]),
+            )
+            .expect("unit vectors"),
+        )
+        .expect("a spline");
+        assert!(moved_polyline_bound(&r, &other, precision).is_none());
+    }
 }

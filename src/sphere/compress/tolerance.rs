@@ -301,6 +301,9 @@ pub struct ToleranceFit {
     /// Certified upper bound of the two-way distance between the curve and the input polyline,
     /// with the points matched in order at `parameters` ([`crate::sphere::two_way`]), radians.
     pub two_way_rad: f64,
+    /// A two-way distance attained by the curve (a lower bound of it): `two_way_rad` minus this
+    /// is how tight that bound is, so a caller can tell whether it serves as a measurement.
+    pub two_way_lower_rad: f64,
     /// The curve's length over the input polyline's length.
     pub curve_length_ratio: f64,
     /// The tolerance asked for, radians.
@@ -526,6 +529,7 @@ pub fn fit_to_tolerance(
             let mut tw = two_way_distance(&curve.spline, points, &curve.params, &measure_options)?;
             if let Some(d) = decided.filter(|d| !d.exceeded) {
                 tw.upper_rad = tw.upper_rad.min(d.upper_rad);
+                tw.lower_rad = tw.lower_rad.max(d.lower_rad);
             }
             tw
         }
@@ -540,6 +544,7 @@ pub fn fit_to_tolerance(
         spline: curve.spline,
         metrics,
         two_way_rad: tw.upper_rad,
+        two_way_lower_rad: tw.lower_rad.min(tw.upper_rad),
         curve_length_ratio: length_ratio(tw.curve_length_rad, input_length),
         tolerance_rad,
         stored_numbers: stored,
