@@ -12,7 +12,8 @@
 //! O(n log n) on typical lines, O(n²) in the worst case, like the planar algorithm.
 
 use crate::sphere::geometry::point::{
-    angle, angle_between, angle_from_sine, dot, normalize, Arc, Dim, PointSet, ANTIPODAL_MARGIN_RAD,
+    angle, angle_between, angle_from_sine, diff_sq, dot, normalize, Arc, Dim, PointSet,
+    ANTIPODAL_MARGIN_RAD,
 };
 
 /// Arcs shorter than this are treated as a point: the plane they span is undefined to rounding
@@ -141,6 +142,36 @@ impl ArcFrame {
         self.distance_in_plane(d, q, x, y)
     }
 
+    /// [`distance_key`] of [`ArcFrame::distance`]: the squared sine of the cross-track angle
+    /// where the foot is on the arc (|q − x e1 − y e2|², the angle being at most a quarter
+    /// turn), else the key of the nearer end from its squared chord. Not for an antipodal arc.
+    #[inline(always)]
+    pub(crate) fn distance_key<D: Dim>(&self, d: D, q: &[f64]) -> f64 {
+        if self.theta < DEGENERATE_ARC_RAD {
+            return chord_key(diff_sq(d, q, &self.e1));
+        }
+        let (e1, e2) = (&self.e1[..d.get()], &self.e2[..d.get()]);
+        let x = dot(d, q, e1);
+        let y = dot(d, q, e2);
+        self.distance_key_in_plane(d, q, x, y)
+    }
+
+    /// [`ArcFrame::distance_key`] given `x = q . e1`, `y = q . e2`. Not for a degenerate arc.
+    #[inline(always)]
+    pub(crate) fn distance_key_in_plane<D: Dim>(&self, d: D, q: &[f64], x: f64, y: f64) -> f64 {
+        let (e1, e2) = (&self.e1[..d.get()], &self.e2[..d.get()]);
+        if y >= 0.0 && y * self.cos_theta <= x * self.sin_theta {
+            let mut perp_sq = 0.0;
+            for k in 0..d.get() {
+                let r = q[k] - x * e1[k] - y * e2[k];
+                perp_sq += r * r;
+            }
+            perp_sq
+        } else {
+            chord_key(diff_sq(d, q, e1)).min(chord_key(diff_sq(d, q, &self.b)))
+        }
+    }
+
     /// [`ArcFrame::distance`] of `q` given its coordinates `x = q . e1`, `y = q . e2` in the
     /// arc's plane (for a caller that needs them too). Not for a degenerate arc.
     #[inline(always)]
@@ -225,13 +256,41 @@ pub fn douglas_peucker(points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
 }
 
 fn douglas_peucker_dim<D: Dim>(d: D, points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
-    split_until_within(points.len(), tolerance_rad, |i0, i1| {
+    split_until_within(points.len(), distance_key(tolerance_rad), |i0, i1| {
         let frame = ArcFrame::new(d, points.get(i0), points.get(i1));
         if frame.antipodal {
             return None;
         }
-        Some(worst_of(i0, i1, |j| frame.distance(d, points.get(j))))
+        Some(worst_of(i0, i1, |j| frame.distance_key(d, points.get(j))))
     })
+}
+
+/// A number that orders distances as the distances do: sin² d up to a quarter turn, 2 − sin² d
+/// past it (infinite from a half turn on). Douglas–Peucker only compares distances, with each
+/// other and with the tolerance, and the key of a point's distance to an arc needs no square
+/// root, arcsine or arctangent (see [`ArcFrame::distance_key`]): they were a third of its time.
+fn distance_key(angle_rad: f64) -> f64 {
+    if angle_rad >= std::f64::consts::PI {
+        return f64::INFINITY;
+    }
+    let s = angle_rad.sin();
+    if angle_rad <= std::f64::consts::FRAC_PI_2 {
+        s * s
+    } else {
+        2.0 - s * s
+    }
+}
+
+/// [`distance_key`] of the angle between two unit vectors from their squared chord
+/// c² = 4 sin²(d/2): sin² d = c² (1 − c²/4), and past a quarter turn (c² > 2) 2 minus that.
+#[inline(always)]
+fn chord_key(c2: f64) -> f64 {
+    let s2 = c2 * (1.0 - 0.25 * c2);
+    if c2 <= 2.0 {
+        s2
+    } else {
+        2.0 - s2
+    }
 }
 
 /// The Douglas–Peucker recursion, on an explicit stack: ends 0 and n − 1 kept, and a span
@@ -309,13 +368,14 @@ fn worst_of(i0: usize, i1: usize, mut error: impl FnMut(usize) -> f64) -> (f64, 
 pub fn douglas_peucker_ordered(points: &PointSet, tolerance_rad: f64) -> Vec<usize> {
     crate::with_dim!(points.dim(), |d| {
         let mut at_reach = vec![0.0; d.get()];
-        split_until_within(points.len(), tolerance_rad, |i0, i1| {
+        // Distances compared by their keys, as in [`douglas_peucker`].
+        split_until_within(points.len(), distance_key(tolerance_rad), |i0, i1| {
             let frame = ArcFrame::new(d, points.get(i0), points.get(i1));
             if frame.antipodal {
                 return None;
             }
             if frame.degenerate() {
-                return Some(worst_of(i0, i1, |j| frame.distance(d, points.get(j))));
+                return Some(worst_of(i0, i1, |j| frame.distance_key(d, points.get(j))));
             }
             // The reach, an along-chord angle in [0, theta], as a direction (rx, ry) in the
             // chord's plane (not normalised): a point's angle phi = atan2(y, x) is at or past
@@ -334,14 +394,14 @@ pub fn douglas_peucker_ordered(points: &PointSet, tolerance_rad: f64) -> Vec<usi
                     } else {
                         (x, y)
                     };
-                    frame.distance_in_plane(d, q, x, y)
+                    frame.distance_key_in_plane(d, q, x, y)
                 } else {
                     let r = (rx * rx + ry * ry).sqrt();
                     let (c, s) = (rx / r, ry / r);
                     for k in 0..d.get() {
                         at_reach[k] = c * frame.e1[k] + s * frame.e2[k];
                     }
-                    angle(d, q, &at_reach)
+                    chord_key(diff_sq(d, q, &at_reach))
                 }
             }))
         })

@@ -183,6 +183,18 @@ pub(crate) fn dot<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
     s
 }
 
+/// Squared Euclidean norm of `a - b` (the squared chord of two unit vectors).
+#[inline(always)]
+pub(crate) fn diff_sq<D: Dim>(d: D, a: &[f64], b: &[f64]) -> f64 {
+    let (a, b) = (&a[..d.get()], &b[..d.get()]);
+    let mut m = 0.0;
+    for k in 0..d.get() {
+        let x = a[k] - b[k];
+        m += x * x;
+    }
+    m
+}
+
 /// Squared Euclidean norm of `a - b` and of `a + b`, in one pass.
 #[inline(always)]
 pub(crate) fn diff_sum_sq<D: Dim>(d: D, a: &[f64], b: &[f64]) -> (f64, f64) {
