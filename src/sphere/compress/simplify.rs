@@ -269,7 +269,7 @@ fn douglas_peucker_dim<D: Dim>(d: D, points: &PointSet, tolerance_rad: f64) -> V
 /// past it (infinite from a half turn on). Douglas–Peucker only compares distances, with each
 /// other and with the tolerance, and the key of a point's distance to an arc needs no square
 /// root, arcsine or arctangent (see [`ArcFrame::distance_key`]): they were a third of its time.
-fn distance_key(angle_rad: f64) -> f64 {
+pub(crate) fn distance_key(angle_rad: f64) -> f64 {
     if angle_rad >= std::f64::consts::PI {
         return f64::INFINITY;
     }

@@ -107,8 +107,8 @@
 //! `scripts/callgrind_bench.sh` counts instructions (stable on a shared machine).
 
 use super::simplify::{
-    distance_to_arc, douglas_peucker, douglas_peucker_ordered, synchronized_douglas_peucker,
-    ArcFrame,
+    distance_key, distance_to_arc, douglas_peucker, douglas_peucker_ordered,
+    synchronized_douglas_peucker, ArcFrame,
 };
 use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
@@ -2066,7 +2066,12 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let j1 = self.params.partition_point(|&t| t <= hi);
         let chord = ArcFrame::new(self.d, self.ctrl.get(c - 1), self.ctrl.get(c + 1));
         let limit = HOPELESS_REMOVAL * target;
-        (j0..j1).any(|j| chord.distance_dyn(self.points.get(j)) > limit)
+        if chord.is_antipodal() {
+            return (j0..j1).any(|j| chord.distance_dyn(self.points.get(j)) > limit);
+        }
+        // Compared by their keys: no square root or arcsine per point.
+        let key = distance_key(limit);
+        (j0..j1).any(|j| chord.distance_key(self.d, self.points.get(j)) > key)
     }
 
     /// For a polyline (degree 1), whether control points `c0 .. c1` lie within `target` of the
