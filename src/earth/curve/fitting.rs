@@ -492,11 +492,12 @@ struct ReportedTwoWay {
 /// Why it holds: the distance is the largest Hausdorff distance between an input segment and
 /// the curve over that segment's parameters, and at every parameter the two curves are
 /// SLERPs at the same fraction α of arcs AB and A'B'. Moving one end (A to A', B fixed)
-/// moves the point at fraction α by at most 3·d(A, A') on arcs of at most a quarter turn: by
-/// the triangle inequality, the points at the same distance s along BA and along BA' are
-/// 2·asin(sin s · sin(φ/2)) apart (φ the angle at B), which is at most its value at the arc's
-/// full length, d(A, A'') ≤ d(A, A') + |BA − BA'| ≤ 2·d(A, A') (A'' on BA' at A's distance);
-/// the two fractions' distances differ by at most |BA − BA'| ≤ d(A, A'). So every point
+/// moves the point at fraction α by at most 3·d(A, A') on arcs of at most a quarter turn: the
+/// points at the same distance s from B along BA and along BA' are 2·asin(sin s · sin(φ/2))
+/// apart (the isosceles spherical triangle, φ its angle at B), which grows with s up to a
+/// quarter turn and so is at most d(A, A'') ≤ d(A, A') + |BA − BA'| ≤ 2·d(A, A') (A'' on BA'
+/// at A's distance from B, by the triangle inequality); and the two points at fraction α lie
+/// at distances from B that differ by at most |BA − BA'| ≤ d(A, A'). So every point
 /// moves by at most 3·(d(A, A') + d(B, B')), and by the triangle inequality the Hausdorff
 /// distance of each piece, and so the bound, grows by at most the largest such move.
 fn moved_polyline_bound(
