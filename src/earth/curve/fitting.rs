@@ -639,10 +639,11 @@ mod tests {
         PointSet::try_from_rows(&rows).expect("unit vectors")
     }
 
-    #[test]
-    fn a_moved_polyline_keeps_a_proven_bound_within_the_precision() {
-        let points = jagged(400);
-        let tol = m_to_rad(100.0);
+    /// A polyline fit of [`jagged`]`(n)` at `tol_m` metres: the points, the fit, the
+    /// tolerance and the report precision in radians.
+    fn polyline_fit(n: usize, tol_m: f64) -> (PointSet, crate::sphere::ToleranceFit, f64, f64) {
+        let points = jagged(n);
+        let tol = m_to_rad(tol_m);
         let r = fit_to_tolerance(
             &points,
             None,
@@ -651,7 +652,12 @@ mod tests {
         )
         .expect("fits");
         assert_eq!(r.spline.degree(), 1);
-        let precision = REPORT_TWO_WAY_PRECISION * tol;
+        (points, r, tol, REPORT_TWO_WAY_PRECISION * tol)
+    }
+
+    #[test]
+    fn a_moved_polyline_keeps_a_proven_bound_within_the_precision() {
+        let (points, r, tol, precision) = polyline_fit(400, 100.0);
         // Rounded to 7 decimals (about a centimetre) and to 5 (about a metre): the bound moves
         // with the vertices, and stays above every distance the moved curve attains.
         for decimals in [7, 5] {
@@ -676,16 +682,7 @@ mod tests {
 
     #[test]
     fn a_moved_curve_on_other_knots_or_degrees_is_measured_again() {
-        let points = jagged(200);
-        let tol = m_to_rad(50.0);
-        let r = fit_to_tolerance(
-            &points,
-            None,
-            tol,
-            &ToleranceOptions::default().with_degrees(&[1]),
-        )
-        .expect("fits");
-        let precision = REPORT_TWO_WAY_PRECISION * tol;
+        let (points, r, _, precision) = polyline_fit(200, 50.0);
         let other = SphericalBSpline::try_new(
             1,
             crate::sphere::curve::bspline::clamped_uniform_knots(3, 1),

@@ -159,43 +159,45 @@ impl ArcFrame {
     /// [`ArcFrame::distance_key`] given `x = q . e1`, `y = q . e2`. Not for a degenerate arc.
     #[inline(always)]
     pub(crate) fn distance_key_in_plane<D: Dim>(&self, d: D, q: &[f64], x: f64, y: f64) -> f64 {
-        let (e1, e2) = (&self.e1[..d.get()], &self.e2[..d.get()]);
-        if y >= 0.0 && y * self.cos_theta <= x * self.sin_theta {
-            let mut perp_sq = 0.0;
-            for k in 0..d.get() {
-                let r = q[k] - x * e1[k] - y * e2[k];
-                perp_sq += r * r;
-            }
-            perp_sq
-        } else {
-            chord_key(diff_sq(d, q, e1)).min(chord_key(diff_sq(d, q, &self.b)))
+        match self.cross_track_sq(d, q, x, y) {
+            Some(perp_sq) => perp_sq,
+            None => chord_key(diff_sq(d, q, &self.e1)).min(chord_key(diff_sq(d, q, &self.b))),
         }
+    }
+
+    /// The squared sine of `q`'s cross-track angle when its projection on the great circle
+    /// lies within the arc (its angle from a, atan2(y, x), in [0, theta]: y >= 0 and
+    /// sin(phi − theta) <= 0), else `None`. Computed as |q − proj|² directly (not as
+    /// 1 − |proj|², which loses half the digits for points near the circle).
+    #[inline(always)]
+    fn cross_track_sq<D: Dim>(&self, d: D, q: &[f64], x: f64, y: f64) -> Option<f64> {
+        if !(y >= 0.0 && y * self.cos_theta <= x * self.sin_theta) {
+            return None;
+        }
+        let (e1, e2) = (&self.e1[..d.get()], &self.e2[..d.get()]);
+        let mut perp_sq = 0.0;
+        for k in 0..d.get() {
+            let r = q[k] - x * e1[k] - y * e2[k];
+            perp_sq += r * r;
+        }
+        Some(perp_sq)
     }
 
     /// [`ArcFrame::distance`] of `q` given its coordinates `x = q . e1`, `y = q . e2` in the
     /// arc's plane (for a caller that needs them too). Not for a degenerate arc.
     #[inline(always)]
     pub(crate) fn distance_in_plane<D: Dim>(&self, d: D, q: &[f64], x: f64, y: f64) -> f64 {
-        let end_a = || angle(d, q, &self.e1);
-        let (e1, e2) = (&self.e1[..d.get()], &self.e2[..d.get()]);
-        // The point's projection on the great circle lies within the arc when its angle from
-        // a, atan2(y, x), is in [0, theta]: y >= 0 and sin(phi − theta) <= 0.
-        if y >= 0.0 && y * self.cos_theta <= x * self.sin_theta {
-            // |q − proj| computed directly (not as sqrt(1 − |proj|²), which loses half the
-            // digits for points near the circle): the sine of the cross-track angle.
-            let mut perp_sq = 0.0;
-            for k in 0..d.get() {
-                let r = q[k] - x * e1[k] - y * e2[k];
-                perp_sq += r * r;
+        match self.cross_track_sq(d, q, x, y) {
+            Some(perp_sq) => {
+                // The sine of the cross-track angle.
+                let perp = perp_sq.sqrt();
+                if perp <= 0.1 {
+                    angle_from_sine(perp)
+                } else {
+                    perp.atan2(x.hypot(y))
+                }
             }
-            let perp = perp_sq.sqrt();
-            if perp <= 0.1 {
-                angle_from_sine(perp)
-            } else {
-                perp.atan2(x.hypot(y))
-            }
-        } else {
-            end_a().min(angle(d, q, &self.b))
+            None => angle(d, q, &self.e1).min(angle(d, q, &self.b)),
         }
     }
 }
