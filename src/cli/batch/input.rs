@@ -96,7 +96,8 @@ pub struct Opened {
     reader: Box<dyn BufRead + Send>,
     /// Bytes read from the input so far (a little ahead of what has been parsed).
     count: Arc<AtomicU64>,
-    /// The input is a file of at most [`READ_WHOLE_BYTES`]: a document is read whole first.
+    /// The input is a file of this size, at most [`READ_WHOLE_BYTES`]: a document is read whole
+    /// first (as long as the file has not grown since).
     whole: Option<usize>,
 }
 
@@ -322,26 +323,29 @@ impl Opened {
             stopped: &mut stopped,
         };
         let top = if let Some(size) = self.whole {
-            // A file small enough is parsed from memory (see READ_WHOLE_BYTES).
+            // A file small enough is parsed from memory (see READ_WHOLE_BYTES). Read at most
+            // one byte past its size when opened: a file that grew since is streamed on from
+            // what was read, never held whole.
             let mut text = Vec::with_capacity(size + 1);
-            self.reader
+            (&mut self.reader)
+                .take(size as u64 + 1)
                 .read_to_end(&mut text)
                 .map_err(|e| ReadError::Fatal(format!("{name}: cannot read: {e}")))?;
-            let mut de = serde_json::Deserializer::from_slice(&text);
-            TopSeed { state: &mut state }
-                .deserialize(&mut de)
-                .and_then(|top| de.end().map(|()| top))
+            if text.len() <= size {
+                parse_top(serde_json::Deserializer::from_slice(&text), &mut state)
+            } else {
+                let rest = BufReader::with_capacity(
+                    PARSE_BUFFER_BYTES,
+                    Cursor::new(text).chain(&mut self.reader),
+                );
+                parse_top(serde_json::Deserializer::from_reader(rest), &mut state)
+            }
         } else {
             // A concrete buffered reader on top: serde_json reads byte by byte, and through
             // the boxed reader each byte was a dynamic call (a tenth of a dataset's reading
             // time).
-            let mut de = serde_json::Deserializer::from_reader(BufReader::with_capacity(
-                PARSE_BUFFER_BYTES,
-                &mut self.reader,
-            ));
-            TopSeed { state: &mut state }
-                .deserialize(&mut de)
-                .and_then(|top| de.end().map(|()| top))
+            let reader = BufReader::with_capacity(PARSE_BUFFER_BYTES, &mut self.reader);
+            parse_top(serde_json::Deserializer::from_reader(reader), &mut state)
         };
         let top = match top {
             Ok(t) => t,
@@ -440,6 +444,16 @@ enum Top {
 
 struct TopSeed<'a, 's, 'e> {
     state: &'a mut DocumentState<'s, 'e>,
+}
+
+/// The document from `de`, its features handed on as they are read, and nothing after it.
+fn parse_top<'de, R: serde_json::de::Read<'de>>(
+    mut de: serde_json::Deserializer<R>,
+    state: &mut DocumentState<'_, '_>,
+) -> Result<Top, serde_json::Error> {
+    let top = TopSeed { state }.deserialize(&mut de)?;
+    de.end()?;
+    Ok(top)
 }
 
 fn stopped<E: de::Error>() -> E {
@@ -603,8 +617,11 @@ mod tests {
             });
             (units, r)
         };
-        let (streamed, whole) = (read(None), read(Some(text.len())));
-        assert_eq!(format!("{streamed:?}"), format!("{whole:?}"));
+        let streamed = read(None);
+        // Read whole; and a file that grew after it was opened (streamed on from what was read).
+        for whole in [Some(text.len()), Some(text.len() / 2)] {
+            assert_eq!(format!("{streamed:?}"), format!("{:?}", read(whole)));
+        }
         streamed
     }
 

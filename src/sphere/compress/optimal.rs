@@ -520,13 +520,8 @@ pub fn subset_curve(
             && kept.windows(2).all(|w| w[0] < w[1]),
         "kept indices run from 0 to the last point, increasing"
     );
-    let dim = points.dim();
-    let mut coords = Vec::with_capacity(kept.len() * dim);
-    for &i in kept {
-        coords.extend_from_slice(points.get(i));
-    }
     let m = kept.len();
-    let ctrl = PointSet::from_flat_unchecked(dim, coords);
+    let ctrl = points.subset(kept);
     let spline = crate::sphere::SphericalBSpline::try_new(
         1,
         crate::sphere::curve::bspline::clamped_uniform_knots(m, 1),
@@ -535,7 +530,7 @@ pub fn subset_curve(
     let mut params = Vec::with_capacity(n);
     params.push(0.0);
     let mut last: f64 = 0.0;
-    crate::with_dim!(dim, |d| {
+    crate::with_dim!(points.dim(), |d| {
         for w in 0..m - 1 {
             let frame = ArcFrame::new(d, points.get(kept[w]), points.get(kept[w + 1]));
             for j in kept[w] + 1..=kept[w + 1] {

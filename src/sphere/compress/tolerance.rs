@@ -116,6 +116,7 @@ use crate::sphere::certify::two_way::{
 use crate::sphere::curve::bspline::{
     clamped_uniform_knots, with_degree, Degree, Frame, Scratch, SphericalBSpline, MAX_DEGREE,
 };
+use crate::sphere::fit::adaptive_knots::turning_angles;
 use crate::sphere::fit::knots::{
     greville_control_points, normalize_parameters, parameters, Parameterization,
 };
@@ -801,12 +802,7 @@ fn polyline_through(
     free: bool,
     kept: &[usize],
 ) -> Option<Curve> {
-    let dim = points.dim();
-    let mut coords = Vec::with_capacity(kept.len() * dim);
-    for &i in kept {
-        coords.extend_from_slice(points.get(i));
-    }
-    let ctrl = PointSet::from_flat_unchecked(dim, coords);
+    let ctrl = points.subset(kept);
     let m = kept.len();
     if free {
         let knots = clamped_uniform_knots(m, 1);
@@ -982,24 +978,6 @@ const PIECE_VERTICES: usize = 512;
 /// sharpest corner is taken.
 const JUNCTION_REACH: usize = 32;
 
-/// The cosine of the turn at `b` between the chords `a`–`b` and `b`–`c` (1 straight on, −1 a
-/// full reversal); 1 where a chord has no length.
-fn straightness(points: &PointSet, a: usize, b: usize, c: usize) -> f64 {
-    let (pa, pb, pc) = (points.get(a), points.get(b), points.get(c));
-    let (mut uv, mut uu, mut vv) = (0.0, 0.0, 0.0);
-    for x in 0..pa.len() {
-        let (u, v) = (pb[x] - pa[x], pc[x] - pb[x]);
-        uv += u * v;
-        uu += u * u;
-        vv += v * v;
-    }
-    if uu > 0.0 && vv > 0.0 {
-        uv / (uu * vv).sqrt()
-    } else {
-        1.0
-    }
-}
-
 /// The degree-1 fit (seed, refinement, knot removal) of a long line, in pieces fitted in
 /// parallel: `None` when the line is too short to cut.
 ///
@@ -1039,18 +1017,12 @@ fn polyline_in_pieces<D: Dim, G: Degree>(
     // Every PIECE_VERTICES-th seed vertex, moved to the sharpest corner near it: a vertex the
     // line turns hard at stays in any fit, so pinning it there costs nothing.
     let last = points.len() - 1;
+    let turns = turning_angles(&points.subset(&seed));
     let mut junctions: Vec<usize> = vec![0];
     let mut k = PIECE_VERTICES;
     while k + PIECE_VERTICES < seed.len() {
-        let (lo, hi) = (k - JUNCTION_REACH, k + JUNCTION_REACH);
-        let sharpest = (lo..=hi)
-            .min_by(|&a, &b| {
-                let (ta, tb) = (
-                    straightness(points, seed[a - 1], seed[a], seed[a + 1]),
-                    straightness(points, seed[b - 1], seed[b], seed[b + 1]),
-                );
-                ta.total_cmp(&tb)
-            })
+        let sharpest = (k - JUNCTION_REACH..=k + JUNCTION_REACH)
+            .max_by(|&a, &b| turns[a].total_cmp(&turns[b]))
             .unwrap_or(k);
         junctions.push(seed[sharpest]);
         k += PIECE_VERTICES;
@@ -1354,10 +1326,6 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let mut f = if p == 1 {
             // The polyline itself: control points at the kept vertices.
             let dim = d.get();
-            let mut coords = Vec::with_capacity(vertices.len() * dim);
-            for &i in &vertices {
-                coords.extend_from_slice(points.get(i));
-            }
             let mut f = Fitter {
                 d,
                 g,
@@ -1369,7 +1337,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 weight: vec![1.0; points.len()],
                 params: base_params.to_vec(),
                 knots,
-                ctrl: PointSet::from_flat_unchecked(dim, coords),
+                ctrl: points.subset(&vertices),
                 scratch: Scratch::new(p, dim),
                 c: vec![0.0; dim],
                 c2: vec![0.0; dim],

@@ -516,6 +516,21 @@ impl PointSet {
         PointSet { dim, coords }
     }
 
+    /// The points at `indices`, in that order.
+    ///
+    /// # Panics
+    /// If an index is out of range.
+    pub(crate) fn subset(&self, indices: &[usize]) -> PointSet {
+        let mut coords = Vec::with_capacity(indices.len() * self.dim);
+        for &i in indices {
+            coords.extend_from_slice(self.get(i));
+        }
+        PointSet {
+            dim: self.dim,
+            coords,
+        }
+    }
+
     /// Number of coordinates per point (n + 1 for S^n).
     pub fn dim(&self) -> usize {
         self.dim
