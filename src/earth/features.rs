@@ -401,8 +401,12 @@ fn process_feature_at(
             stats: FeatureStats::default(),
         });
     };
-    let mut out = map.clone();
-    out.remove("bbox");
+    // Every member but the input geometry (replaced, and not worth a deep copy) and the bbox.
+    let mut out: Map<String, Value> = map
+        .iter()
+        .filter(|(k, _)| !matches!(k.as_str(), "geometry" | "bbox"))
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
     out.insert("geometry".into(), geometry_out);
     let key = match job.operation {
         Operation::Fit(_) | Operation::FitToTolerance { .. } => "fit",

@@ -182,14 +182,33 @@ pub fn detect(r: &mut dyn BufRead) -> io::Result<(Format, Vec<u8>)> {
     if !complete {
         return Ok((Format::Geojson, first));
     }
-    let format = match serde_json::from_slice::<Value>(&first) {
-        Ok(v) if v.get("type").and_then(Value::as_str) == Some("FeatureCollection") => {
-            Format::Geojson
-        }
-        Ok(_) if skip_space(r)? => Format::Lines,
+    let format = match probe_type(&first) {
+        Some(Some(kind)) if kind == "FeatureCollection" => Format::Geojson,
+        Some(_) if skip_space(r)? => Format::Lines,
         _ => Format::Geojson,
     };
     Ok((format, first))
+}
+
+/// The `type` of the JSON text `text` when it is one complete JSON value: `Some(None)` for a
+/// value without a string `type`, `None` when `text` is not one JSON value. Nothing but the
+/// `type` is built: the first line can be a whole document of 4 MiB.
+fn probe_type(text: &[u8]) -> Option<Option<String>> {
+    #[derive(serde::Deserialize)]
+    struct Typed {
+        #[serde(rename = "type")]
+        kind: Option<String>,
+    }
+    let object = text.iter().find(|b| !is_json_space(**b)) == Some(&b'{');
+    if object {
+        if let Ok(t) = serde_json::from_slice::<Typed>(text) {
+            return Some(t.kind);
+        }
+    }
+    // Not an object with a string `type` (or none): still one JSON value?
+    serde_json::from_slice::<serde::de::IgnoredAny>(text)
+        .ok()
+        .map(|_| None)
 }
 
 /// Where a record sits in its input.
@@ -598,6 +617,19 @@ mod tests {
             Format::Geojson
         );
         assert_eq!(detect_str(" \n "), Format::Lines);
+        // Only an object's `type` counts; other JSON values on the first line are records.
+        assert_eq!(detect_str("[\"FeatureCollection\"]\n[1]\n"), Format::Lines);
+        assert_eq!(detect_str("{\"type\": 5}\n{}\n"), Format::Lines);
+        assert_eq!(
+            detect_str("{\"type\": \"FeatureCollection\"\n"),
+            Format::Geojson
+        );
+        assert_eq!(
+            probe_type(b" {\"a\": [1, {\"type\": 2}], \"type\": \"X\"}"),
+            Some(Some("X".into()))
+        );
+        assert_eq!(probe_type(b"[1, 2]"), Some(None));
+        assert_eq!(probe_type(b"{\"type\": "), None);
     }
 
     /// The units read from `text`, streamed and read whole first: both ways must agree.

@@ -1178,6 +1178,9 @@ struct Fitter<'a, D: Dim, G: Degree> {
     buffers: RefitBuffers,
     /// What a removal saves to undo itself, kept between removals.
     undo: Undo,
+    /// The span of the last point measured: points are mostly measured in order, so the next
+    /// one's span is this one or the next (no binary search over the knots).
+    span_hint: usize,
 }
 
 /// The window a knot removal changes, saved before its refit ([`Fitter::try_remove`]).
@@ -1246,6 +1249,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             c2: vec![0.0; d.get()],
             buffers: RefitBuffers::default(),
             undo: Undo::default(),
+            span_hint: p,
         };
         f.measure_range(0, points.len());
         Some(f)
@@ -1343,6 +1347,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 c2: vec![0.0; dim],
                 buffers: RefitBuffers::default(),
                 undo: Undo::default(),
+                span_hint: p,
             };
             f.measure_range(0, points.len());
             f
@@ -1432,15 +1437,10 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     }
 
     fn error_at(&mut self, j: usize, t: f64) -> f64 {
-        eval_curve::<D, G, false>(
-            self.d,
-            self.g,
-            &self.knots,
-            &self.ctrl,
-            t,
-            &mut self.scratch,
-            &mut self.c,
-        );
+        let frame = Frame::new(self.g.get(), &self.knots, &self.ctrl);
+        let k = frame.span_from(self.span_hint.clamp(frame.p, frame.last_span), t);
+        self.span_hint = k;
+        frame.eval::<D, G, false, false>(self.d, self.g, k, t, &mut self.scratch, &mut self.c);
         angle(self.d, self.points.get(j), &self.c)
     }
 
@@ -2105,6 +2105,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             c2: vec![0.0; self.d.get()],
             buffers: RefitBuffers::default(),
             undo: Undo::default(),
+            span_hint: p,
         };
         let mut max = f.measure_range(0, self.points.len()).0;
         if max > target && p >= 2 {

@@ -428,10 +428,10 @@ impl Scratch {
 /// A spline's parts as de Boor needs them, borrowed (the fitter swaps control points each
 /// iteration while knots stay put), plus optional per-curve caches for the hot loops.
 pub(crate) struct Frame<'a> {
-    p: usize,
+    pub(crate) p: usize,
     knots: &'a [f64],
     control: &'a PointSet,
-    last_span: usize,
+    pub(crate) last_span: usize,
     n_ctrl: usize,
     /// `arcs[i]`: control i − 1 to i. Level 1 of the triangle SLERPs exactly these pairs at every
     /// parameter of a span, so their angles are computed once per curve (empty when uncached).
