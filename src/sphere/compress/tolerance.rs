@@ -1178,8 +1178,7 @@ struct Fitter<'a, D: Dim, G: Degree> {
     buffers: RefitBuffers,
     /// What a removal saves to undo itself, kept between removals.
     undo: Undo,
-    /// The span of the last point measured: points are mostly measured in order, so the next
-    /// one's span is this one or the next (no binary search over the knots).
+    /// The span of the last evaluation ([`eval_curve`]).
     span_hint: usize,
 }
 
@@ -1203,7 +1202,9 @@ struct RefitBuffers {
 }
 
 /// C(t) into `out`; with `CONTRIB` the contribution coefficients are in `scratch.contrib`.
-/// Returns the span.
+/// Returns the span, and keeps it in `hint`: the fitter's passes go through the points in
+/// order, so the next span is this one or the next and no binary search over the knots is
+/// needed.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn eval_curve<D: Dim, G: Degree, const CONTRIB: bool>(
@@ -1212,11 +1213,13 @@ fn eval_curve<D: Dim, G: Degree, const CONTRIB: bool>(
     knots: &[f64],
     ctrl: &PointSet,
     t: f64,
+    hint: &mut usize,
     scratch: &mut Scratch,
     out: &mut [f64],
 ) -> usize {
     let frame = Frame::new(g.get(), knots, ctrl);
-    let k = frame.span(t);
+    let k = frame.span_from((*hint).clamp(frame.p, frame.last_span), t);
+    *hint = k;
     frame.eval::<D, G, CONTRIB, false>(d, g, k, t, scratch, out);
     k
 }
@@ -1437,10 +1440,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     }
 
     fn error_at(&mut self, j: usize, t: f64) -> f64 {
-        let frame = Frame::new(self.g.get(), &self.knots, &self.ctrl);
-        let k = frame.span_from(self.span_hint.clamp(frame.p, frame.last_span), t);
-        self.span_hint = k;
-        frame.eval::<D, G, false, false>(self.d, self.g, k, t, &mut self.scratch, &mut self.c);
+        eval_curve::<D, G, false>(
+            self.d,
+            self.g,
+            &self.knots,
+            &self.ctrl,
+            t,
+            &mut self.span_hint,
+            &mut self.scratch,
+            &mut self.c,
+        );
         angle(self.d, self.points.get(j), &self.c)
     }
 
@@ -1483,6 +1492,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     &self.knots,
                     &self.ctrl,
                     t,
+                    &mut self.span_hint,
                     &mut self.scratch,
                     &mut self.c,
                 );
@@ -1500,6 +1510,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     &self.knots,
                     &self.ctrl,
                     tb,
+                    &mut self.span_hint,
                     &mut self.scratch,
                     &mut self.c2,
                 );
@@ -1524,6 +1535,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                         &self.knots,
                         &self.ctrl,
                         ta,
+                        &mut self.span_hint,
                         &mut self.scratch,
                         &mut self.c2,
                     );
@@ -1730,6 +1742,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                     &self.knots,
                     &self.ctrl,
                     t,
+                    &mut self.span_hint,
                     &mut self.scratch,
                     &mut self.c,
                 );
