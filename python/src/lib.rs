@@ -262,7 +262,7 @@ fn one_geometry(index: usize, wkb: &[u8], job: &Job, key: &str) -> Result<Outcom
     if done.stats.curves == 0 {
         return Ok(None);
     }
-    outcome(index, done.feature, key)
+    outcome(index, done.feature.into_value(), key)
 }
 
 /// Fits spherical B-splines to WKB lines and rings, as `spherefit fit` does. See
@@ -426,7 +426,7 @@ fn evaluate_json(
                 .to_string();
             earth_error(i, EarthError { pointer, ..e })
         })?;
-        outcome(i, done.feature, "evaluation")
+        outcome(i, done.feature.into_value(), "evaluation")
     })
 }
 

@@ -6,16 +6,17 @@
 //! so callers may run them in parallel or stream them; [`Document::into_feature_collection`]
 //! puts the results back together in order, with the collection's foreign members.
 
-use super::antimeridian::{cut_line, split_polygon, Position, SphereRing};
+use super::antimeridian::{cut_line, split_polygon, SphereRing};
 use super::curve::{
     compression_ratio, evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line,
-    json_kind, output_position,
+    json_kind, output_position, output_positions,
 };
 use super::curve::{curve_in_time, CurveOutput, CurveReport, LineTimeInput};
 use super::time::{motion, TimeOrigin, TIME_PROPERTIES};
-use super::{EarthError, Job, Operation, Problem};
+use super::{EarthError, Job, JsonOut, Operation, Problem};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
+use std::collections::BTreeMap;
 
 /// Geometry types that hold curves.
 const CURVE_TYPES: [&str; 4] = ["LineString", "MultiLineString", "Polygon", "MultiPolygon"];
@@ -78,8 +79,9 @@ impl FeatureStats {
 /// An output Feature and its counters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProcessedFeature {
-    /// The output Feature.
-    pub feature: Value,
+    /// The output Feature: serialise it as it is, or take it as a [`Value`] with
+    /// [`JsonOut::into_value`].
+    pub feature: JsonOut,
     /// What was done to it.
     pub stats: FeatureStats,
 }
@@ -224,17 +226,17 @@ impl Document {
 
     /// The output FeatureCollection: `features` in input order and the input collection's
     /// foreign members (its `bbox` is dropped when any feature changed).
-    pub fn into_feature_collection(self, features: Vec<Value>, changed: bool) -> Value {
-        let mut out = Map::new();
-        out.insert("type".into(), json!("FeatureCollection"));
+    pub fn into_feature_collection(self, features: Vec<JsonOut>, changed: bool) -> JsonOut {
+        let mut out = BTreeMap::new();
         for (k, v) in self.members {
             if k == "bbox" && changed {
                 continue;
             }
-            out.insert(k, v);
+            out.insert(k, JsonOut::Value(v));
         }
-        out.insert("features".into(), Value::Array(features));
-        Value::Object(out)
+        out.insert("type".into(), JsonOut::Value(json!("FeatureCollection")));
+        out.insert("features".into(), JsonOut::Array(features));
+        JsonOut::Object(out)
     }
 }
 
@@ -397,15 +399,16 @@ fn process_feature_at(
     };
     let Some((geometry_out, info, stats, time_props)) = result else {
         return Ok(ProcessedFeature {
-            feature: feature.clone(),
+            feature: JsonOut::Value(feature.clone()),
             stats: FeatureStats::default(),
         });
     };
-    // Every member but the input geometry (replaced, and not worth a deep copy) and the bbox.
-    let mut out: Map<String, Value> = map
+    // Every member but the input geometry (replaced, and not worth a deep copy), the bbox
+    // and the properties (rebuilt below).
+    let mut out: BTreeMap<String, JsonOut> = map
         .iter()
-        .filter(|(k, _)| !matches!(k.as_str(), "geometry" | "bbox"))
-        .map(|(k, v)| (k.clone(), v.clone()))
+        .filter(|(k, _)| !matches!(k.as_str(), "geometry" | "bbox" | "properties"))
+        .map(|(k, v)| (k.clone(), JsonOut::Value(v.clone())))
         .collect();
     out.insert("geometry".into(), geometry_out);
     let key = match job.operation {
@@ -413,17 +416,20 @@ fn process_feature_at(
         Operation::Interpolate(_) => "interpolation",
         Operation::Evaluate => "evaluation",
     };
-    let mut props = match out.remove("properties") {
-        Some(Value::Object(p)) => p,
-        _ => Map::new(),
+    let mut props: BTreeMap<String, JsonOut> = match map.get("properties") {
+        Some(Value::Object(p)) => p
+            .iter()
+            .map(|(k, v)| (k.clone(), JsonOut::Value(v.clone())))
+            .collect(),
+        _ => BTreeMap::new(),
     };
     props.insert(key.into(), info);
     for (k, v) in time_props {
-        props.insert(k, v);
+        props.insert(k, JsonOut::Value(v));
     }
-    out.insert("properties".into(), Value::Object(props));
+    out.insert("properties".into(), JsonOut::Object(props));
     Ok(ProcessedFeature {
-        feature: Value::Object(out),
+        feature: JsonOut::Object(out),
         stats,
     })
 }
@@ -446,7 +452,7 @@ struct CurveJob<'a> {
 type Made = Option<Assembled>;
 
 /// What [`assemble`] makes (see [`Made`]).
-type Assembled = (Value, Value, FeatureStats, Vec<(String, Value)>);
+type Assembled = (JsonOut, JsonOut, FeatureStats, Vec<(String, Value)>);
 
 /// Where a feature's times are, for a fit in time.
 #[derive(Clone, Debug)]
@@ -945,12 +951,12 @@ fn one_curve(c: &CurveJob<'_>, job: &Job) -> Result<CurveOutput, EarthError> {
     }
 }
 
-fn positions_json(ps: &[Position], has_alt: bool, precision: u32) -> Value {
-    Value::Array(
-        ps.iter()
-            .map(|p| output_position(p, has_alt, precision))
-            .collect(),
-    )
+/// A geometry object of `kind` with these coordinates.
+fn geometry(kind: &str, coordinates: JsonOut) -> JsonOut {
+    JsonOut::object([
+        ("type", JsonOut::Value(Value::from(kind))),
+        ("coordinates", coordinates),
+    ])
 }
 
 /// Builds the output geometry, the properties object and the stats from fitted curves.
@@ -976,6 +982,8 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
     // Times of the dense output kept in a property: one array per output line.
     let mut time_pieces: Vec<Value> = Vec::new();
     let mut time_name: Option<String> = None;
+    // Whether the output is a single LineString (its times are then one array, not nested).
+    let mut is_line_string = false;
     let geometry = match kind {
         "LineString" | "MultiLineString" => {
             let mut pieces = Vec::new();
@@ -983,7 +991,7 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
                 let cut = cut_line(&c.points, &c.alts);
                 let Some(t) = &c.time else {
                     for piece in cut {
-                        pieces.push(positions_json(&piece, c.has_alt, precision));
+                        pieces.push(output_positions(&piece, c.has_alt, precision));
                     }
                     continue;
                 };
@@ -992,7 +1000,7 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
                 let cut_t = cut_line(&c.points, &t.unix_s);
                 for (piece, tp) in cut.iter().zip(&cut_t) {
                     match &t.origin {
-                        TimeOrigin::M => pieces.push(Value::Array(
+                        TimeOrigin::M => pieces.push(JsonOut::Value(Value::Array(
                             piece
                                 .iter()
                                 .zip(tp)
@@ -1004,9 +1012,9 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
                                     v
                                 })
                                 .collect(),
-                        )),
+                        ))),
                         TimeOrigin::Property(name) => {
-                            pieces.push(positions_json(piece, c.has_alt, precision));
+                            pieces.push(output_positions(piece, c.has_alt, precision));
                             time_name = Some(name.clone());
                             time_pieces.push(Value::Array(
                                 tp.iter().map(|q| t.format.write(q[2])).collect(),
@@ -1016,9 +1024,10 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
                 }
             }
             if kind == "LineString" && pieces.len() == 1 {
-                json!({"type": "LineString", "coordinates": pieces.pop().expect("one piece")})
+                is_line_string = true;
+                geometry("LineString", pieces.pop().expect("one piece"))
             } else {
-                json!({"type": "MultiLineString", "coordinates": pieces})
+                geometry("MultiLineString", JsonOut::Array(pieces))
             }
         }
         _ => {
@@ -1050,17 +1059,17 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
                     EarthError::new(ptr, Problem::InvalidRing(m))
                 })?;
                 for poly in split {
-                    pieces.push(Value::Array(
+                    pieces.push(JsonOut::Array(
                         poly.iter()
-                            .map(|ring| positions_json(ring, has_alt, precision))
+                            .map(|ring| output_positions(ring, has_alt, precision))
                             .collect(),
                     ));
                 }
             }
             if kind == "Polygon" && pieces.len() == 1 {
-                json!({"type": "Polygon", "coordinates": pieces.pop().expect("one piece")})
+                geometry("Polygon", pieces.pop().expect("one piece"))
             } else {
-                json!({"type": "MultiPolygon", "coordinates": pieces})
+                geometry("MultiPolygon", JsonOut::Array(pieces))
             }
         }
     };
@@ -1075,7 +1084,7 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
     let info = properties_object(kind, outputs.into_iter().map(|c| c.report).collect(), job);
     let mut extra = Vec::new();
     if let Some(name) = time_name {
-        let value = if geometry["type"] == "LineString" && time_pieces.len() == 1 {
+        let value = if is_line_string && time_pieces.len() == 1 {
             time_pieces.pop().expect("one piece")
         } else {
             Value::Array(time_pieces)
@@ -1164,8 +1173,8 @@ fn evaluate_at(
         ..FeatureStats::default()
     };
     Ok((
-        json!({"type": "MultiPoint", "coordinates": coords}),
-        info,
+        json!({"type": "MultiPoint", "coordinates": coords}).into(),
+        info.into(),
         stats,
         vec![(name, Value::Array(times))],
     ))
@@ -1173,9 +1182,9 @@ fn evaluate_at(
 
 /// `properties.fit` (or `interpolation`, `evaluation`): a LineString's fields directly; for
 /// other geometries, totals over the parts plus `geometry` and `parts`.
-fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> Value {
+fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> JsonOut {
     if kind == "LineString" && reports.len() == 1 {
-        return Value::Object(reports.pop().expect("one report").fields);
+        return JsonOut::Object(reports.pop().expect("one report").into_members());
     }
     let mut out = Map::new();
     let n_in: usize = reports.iter().map(|r| r.input_points).sum();
@@ -1247,18 +1256,21 @@ fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: &Job) -> Va
         .fold(0.0, f64::max);
     out.insert("sampling_deviation_m".into(), json!(dev));
     out.insert("geometry".into(), json!(kind));
-    let parts: Vec<Value> = reports
+    let parts: Vec<JsonOut> = reports
         .into_iter()
         .map(|r| {
-            let mut m = Map::new();
-            m.insert("path".into(), json!(r.path));
-            m.insert("closed".into(), json!(r.closed));
-            m.extend(r.fields);
-            Value::Object(m)
+            let (path, closed) = (json!(r.path), json!(r.closed));
+            let mut m = r.into_members();
+            m.insert("path".into(), JsonOut::Value(path));
+            m.insert("closed".into(), JsonOut::Value(closed));
+            JsonOut::Object(m)
         })
         .collect();
-    out.insert("parts".into(), Value::Array(parts));
-    Value::Object(out)
+    let mut out = JsonOut::from(out);
+    if let JsonOut::Object(m) = &mut out {
+        m.insert("parts".into(), JsonOut::Array(parts));
+    }
+    out
 }
 
 /// Samples a bare lon/lat spline document (`{"crs": "lonlat", "degree", "knots",
@@ -1296,7 +1308,11 @@ pub fn evaluate_spline_document(
     let outputs = run_curves(&jobs, &evaluate)?;
     let (geometry, info, stats, _) = assemble("LineString", outputs, job)?;
     Ok(ProcessedFeature {
-        feature: json!({"type": "Feature", "properties": {"evaluation": info}, "geometry": geometry}),
+        feature: JsonOut::object([
+            ("type", JsonOut::Value(json!("Feature"))),
+            ("properties", JsonOut::object([("evaluation", info)])),
+            ("geometry", geometry),
+        ]),
         stats,
     })
 }
@@ -1327,15 +1343,17 @@ mod tests {
         let job = Job::fit(FitOptions::default());
         let outs: Vec<ProcessedFeature> =
             d.slots.iter().map(|s| s.process(&job).unwrap()).collect();
-        assert_eq!(outs[0].feature, doc["features"][0]);
-        assert_eq!(outs[2].feature, doc["features"][2]);
-        let f = &outs[1].feature;
+        assert_eq!(outs[0].feature.clone().into_value(), doc["features"][0]);
+        assert_eq!(outs[2].feature.clone().into_value(), doc["features"][2]);
+        let f = outs[1].feature.clone().into_value();
         assert_eq!(f["id"], 2);
         assert_eq!(f["foo"], json!([1]));
         assert!(f.get("bbox").is_none());
         assert!(f["properties"]["fit"]["max_error_m"].is_number());
         assert_eq!(outs[1].stats.curves, 1);
-        let fc = d.into_feature_collection(outs.into_iter().map(|o| o.feature).collect(), true);
+        let fc = d
+            .into_feature_collection(outs.into_iter().map(|o| o.feature).collect(), true)
+            .into_value();
         assert_eq!(fc["name"], "test");
         assert!(fc.get("bbox").is_none());
         assert_eq!(fc["features"].as_array().unwrap().len(), 3);
@@ -1363,7 +1381,8 @@ mod tests {
         let fitted = Document::parse(doc, false).unwrap().slots[0]
             .process(&job)
             .unwrap()
-            .feature;
+            .feature
+            .into_value();
         assert_eq!(
             fitted["properties"]["fit"]["parts"]
                 .as_array()
@@ -1372,7 +1391,10 @@ mod tests {
             2
         );
         let ev_job = Job::evaluate().with_sampling(super::super::Sampling::Samples(50));
-        let evaluated = process_feature(&fitted, "", &ev_job).unwrap().feature;
+        let evaluated = process_feature(&fitted, "", &ev_job)
+            .unwrap()
+            .feature
+            .into_value();
         assert_eq!(evaluated["geometry"], fitted["geometry"]);
     }
 
@@ -1387,7 +1409,8 @@ mod tests {
         let out = d.slots[0]
             .process(&Job::evaluate().with_sampling(super::super::Sampling::Samples(11)))
             .unwrap();
-        let coords = out.feature["geometry"]["coordinates"].as_array().unwrap();
+        let out = out.feature.into_value();
+        let coords = out["geometry"]["coordinates"].as_array().unwrap();
         assert_eq!(coords.len(), 11);
         assert_eq!(coords[5], json!([5.0, 0.0]));
     }

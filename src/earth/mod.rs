@@ -11,6 +11,7 @@
 //!   the service and the command line share; errors carry the data ([`Problem::CountOutOfRange`]
 //!   names the limit) and each front end words them.
 //! * [`features`]: GeoJSON documents walked feature by feature ([`process_feature`]).
+//! * [`json_out`]: output JSON whose long number arrays are written straight from `f64`.
 //! * [`time`]: tracks in time: times read from the properties or the 4th coordinate and
 //!   checked, the map between times and the curve parameter, speed and heading.
 //! * [`topology`]: the polygons of a document as one coverage (`topology=shared`): arcs between
@@ -50,14 +51,19 @@
 //!         (0..50).map(|i| [i as f64 * 0.1, (i as f64 * 0.05).sin()]).collect::<Vec<_>>()}
 //! });
 //! let out = process_feature(&feature, "/features/0", &Job::fit(Default::default())).unwrap();
-//! assert_eq!(out.feature["id"], 7);
-//! assert!(out.feature["properties"]["fit"]["max_error_m"].as_f64().unwrap() < 5_000.0);
 //! assert_eq!(out.stats.curves, 1);
+//! // Written as it is (its long number arrays straight from f64), or taken as a Value:
+//! let text = serde_json::to_string(&out.feature).unwrap();
+//! let value = out.feature.into_value();
+//! assert_eq!(text, value.to_string());
+//! assert_eq!(value["id"], 7);
+//! assert!(value["properties"]["fit"]["max_error_m"].as_f64().unwrap() < 5_000.0);
 //! ```
 
 pub mod antimeridian;
 pub mod curve;
 pub mod features;
+pub mod json_out;
 pub mod lonlat;
 pub mod sampling;
 pub mod time;
@@ -68,6 +74,7 @@ pub use features::{
     evaluate_spline_document, process_feature, process_geometry, Document, FeatureSlot,
     FeatureStats, ProcessedFeature, Source,
 };
+pub use json_out::JsonOut;
 pub use lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, unit_to_lonlat, LonLat, EARTH_RADIUS_M};
 pub use sampling::Sampling;
 pub use time::{TimeFormat, TimeMap, TimeSource};

@@ -13,6 +13,7 @@ fn fit_feature(f: &Value, options: FitOptions) -> Value {
     process_feature(f, "/features/0", &Job::fit(options))
         .unwrap()
         .feature
+        .into_value()
 }
 
 fn unit(p: &Value) -> [f64; 3] {

@@ -23,13 +23,14 @@ fn feature_by_feature_equals_the_whole_document() {
             process_feature(f, &format!("/features/{i}"), &job)
                 .unwrap()
                 .feature
+                .into_value()
         })
         .collect();
     // The whole document, as the service splits it.
     let doc = Document::parse(fc.clone(), false).unwrap();
     let outs: Vec<_> = doc.slots.iter().map(|s| s.process(&job).unwrap()).collect();
     for (a, b) in one_by_one.iter().zip(&outs) {
-        assert_eq!(a, &b.feature);
+        assert_eq!(a, &b.feature.clone().into_value());
     }
     let stats = outs.iter().fold(
         Default::default(),
@@ -45,8 +46,9 @@ fn feature_by_feature_equals_the_whole_document() {
     // knots are 0 and 1).
     assert_eq!(stats.stored_numbers, 3 * (40 + 16 + 1));
     assert!(stats.max_error_m > 0.0);
-    let collection =
-        doc.into_feature_collection(outs.into_iter().map(|o| o.feature).collect(), true);
+    let collection = doc
+        .into_feature_collection(outs.into_iter().map(|o| o.feature).collect(), true)
+        .into_value();
     assert_eq!(collection["features"].as_array().unwrap().len(), 3);
 }
 
@@ -68,7 +70,7 @@ fn every_output_position_is_on_the_earth_and_rounded() {
     let job = Job::fit(FitOptions::default()).with_precision(5);
     let f = json!({"type": "Feature", "properties": null, "geometry": {"type": "LineString",
         "coordinates": (0..100).map(|i| [170.0 + i as f64 * 0.2, 80.0 + 9.0 * (i as f64 / 99.0)]).map(|[a, b]| [if a > 180.0 { a - 360.0 } else { a }, b]).collect::<Vec<_>>()}});
-    let out = process_feature(&f, "", &job).unwrap().feature;
+    let out = process_feature(&f, "", &job).unwrap().feature.into_value();
     let g = &out["geometry"];
     let lines: Vec<&Value> = match g["type"].as_str().unwrap() {
         "LineString" => vec![&g["coordinates"]],
@@ -118,9 +120,10 @@ fn fit_and_tolerance_fit_count_stored_numbers_alike() {
         };
         job.validate().unwrap();
         let t = process_feature(feature, "", &job).unwrap();
-        let fit_doc = &t.feature["properties"]["fit"];
+        let t_feature = t.feature.into_value();
+        let fit_doc = &t_feature["properties"]["fit"];
         let uniform = fit_doc["knot_rule"] == "uniform";
-        let (n, p, expected) = from_document(&t.feature, uniform);
+        let (n, p, expected) = from_document(&t_feature, uniform);
         assert_eq!(t.stats.stored_numbers, expected, "{tolerance_m} m");
         assert_eq!(fit_doc["stored_numbers"].as_u64(), Some(expected as u64));
 
@@ -135,7 +138,7 @@ fn fit_and_tolerance_fit_count_stored_numbers_alike() {
             .with_degree(p)
             .with_knots(knots);
         let f = process_feature(feature, "", &Job::fit(options)).unwrap();
-        let (_, _, fit_expected) = from_document(&f.feature, uniform);
+        let (_, _, fit_expected) = from_document(&f.feature.clone().into_value(), uniform);
         assert_eq!(f.stats.stored_numbers, fit_expected, "{tolerance_m} m");
         assert_eq!(
             f.stats.stored_numbers, t.stats.stored_numbers,

@@ -118,7 +118,7 @@ fn run_document(doc: Value) {
         if let Ok(d) = Document::parse(doc.clone(), allow_spline) {
             for slot in &d.slots {
                 match slot.process(&job) {
-                    Ok(p) => check_finite(&p.feature["geometry"]),
+                    Ok(p) => check_finite(&p.feature.into_value()["geometry"]),
                     Err(e) => assert!(e.pointer.is_empty() || e.pointer.starts_with('/'), "{e:?}"),
                 }
             }

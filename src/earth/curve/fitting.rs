@@ -254,11 +254,11 @@ pub(super) fn finish_fit(
         origin: t.origin.clone(),
     });
 
-    let spline_doc = json!({
-        "degree": spline.degree(),
-        "knots": spline.knots(),
-        "control_points": control_ll,
-    });
+    let spline_doc = JsonOut::object([
+        ("degree", JsonOut::Value(json!(spline.degree()))),
+        ("knots", JsonOut::Numbers(spline.knots().to_vec())),
+        ("control_points", JsonOut::rows(&control_ll)),
+    ]);
     let mut fields = Map::new();
     fields.insert("max_error_m".into(), json!(round_m(rad_to_m(max_rad))));
     fields.insert(
@@ -291,7 +291,6 @@ pub(super) fn finish_fit(
         "sampling_deviation_m".into(),
         json!(round_m(rad_to_m(dense.max_deviation_rad))),
     );
-    fields.insert("spline".into(), spline_doc);
     Ok((
         CurveOutput {
             pointer: pointer.to_string(),
@@ -300,6 +299,7 @@ pub(super) fn finish_fit(
                 path,
                 closed,
                 fields,
+                spline: Some(spline_doc),
                 input_points: n_in,
                 output_points: points_out.len(),
                 stored_numbers: bspline_stored_numbers(&spline),

@@ -80,6 +80,7 @@ pub fn interpolate_line(
             path,
             closed,
             fields,
+            spline: None,
             input_points: n_in,
             output_points: points_out.len(),
             stored_numbers: curve.stored_numbers(),

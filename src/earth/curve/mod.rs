@@ -15,7 +15,7 @@ use super::sampling::{
 };
 use super::sampling::{sample_at, time_parameters};
 use super::time::{check_times, times_from_array, LineTimes, TimeFormat, TimeMap, TimeOrigin};
-use super::{EarthError, InterpolateSettings, Limits, OutputOptions, Problem};
+use super::{EarthError, InterpolateSettings, JsonOut, Limits, OutputOptions, Problem};
 use crate::document::BetaDocument;
 use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
 use crate::sphere::fit::default_control_points;
@@ -108,7 +108,7 @@ mod tests {
     fn too_few_distinct_points_lower_the_degree_or_fail() {
         let opts = FitOptions::default();
         let r = fit_default(&json!([[0, 0], [1, 1], [1, 1]]), "/c", vec![], false, &opts).unwrap();
-        assert_eq!(r.report.fields["spline"]["degree"], 1);
+        assert_eq!(r.report.spline.unwrap().into_value()["degree"], 1);
         assert_eq!(r.report.fields["input_points"], 3);
         let e = fit_default(&json!([[0, 0], [0, 0]]), "/c", vec![], false, &opts).unwrap_err();
         assert!(matches!(
@@ -149,9 +149,8 @@ mod tests {
         )
         .unwrap();
         assert_eq!(r.points.first(), r.points.last());
-        let cps = r.report.fields["spline"]["control_points"]
-            .as_array()
-            .unwrap();
+        let doc = r.report.spline.clone().unwrap().into_value();
+        let cps = doc["control_points"].as_array().unwrap();
         assert_eq!(cps.first(), cps.last());
         assert!(r.report.max_error_m < 20_000.0, "{}", r.report.max_error_m);
         let e = fit_default(
@@ -196,7 +195,7 @@ mod tests {
             &FitOptions::default().with_control_points(15),
         )
         .unwrap();
-        let doc = &r.report.fields["spline"];
+        let doc = &r.report.spline.clone().unwrap().into_value();
         let curve = match curve_from_lonlat_json(doc, "").unwrap() {
             AnyCurve::BSpline(s) => s,
             _ => unreachable!(),

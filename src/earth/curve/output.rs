@@ -11,8 +11,11 @@ pub struct CurveReport {
     pub path: Vec<usize>,
     /// A ring (closed curve).
     pub closed: bool,
-    /// Fields of `properties.fit` (or `interpolation`) for this curve, spline/curve included.
+    /// Fields of `properties.fit` (or `interpolation`) for this curve; an interpolation's
+    /// `curve` included, a fit's `spline` apart in [`CurveReport::spline`].
     pub fields: Map<String, Value>,
+    /// A fit's `spline` document, kept as numbers until written ([`JsonOut`]).
+    pub spline: Option<JsonOut>,
     /// Input positions (repeats included); 0 for evaluation.
     pub input_points: usize,
     /// Dense output points.
@@ -25,6 +28,21 @@ pub struct CurveReport {
     pub error_sum_m: f64,
     /// Sum of squared errors, square metres.
     pub error_sq_sum_m2: f64,
+}
+
+impl CurveReport {
+    /// The report's members as output: [`CurveReport::fields`] and the spline.
+    pub fn into_members(self) -> std::collections::BTreeMap<String, JsonOut> {
+        let mut m: std::collections::BTreeMap<String, JsonOut> = self
+            .fields
+            .into_iter()
+            .map(|(k, v)| (k, JsonOut::Value(v)))
+            .collect();
+        if let Some(spline) = self.spline {
+            m.insert("spline".into(), spline);
+        }
+        m
+    }
 }
 
 /// A curve ready for output: dense unit vectors with altitudes, and its report.
@@ -158,4 +176,18 @@ pub fn output_position(p: &[f64; 3], has_alt: bool, precision: u32) -> Value {
     } else {
         json!([lon, lat])
     }
+}
+
+/// Positions rounded for output as [`output_position`] rounds them, as rows.
+pub fn output_positions(ps: &[[f64; 3]], has_alt: bool, precision: u32) -> JsonOut {
+    let width = if has_alt { 3 } else { 2 };
+    let mut numbers = Vec::with_capacity(ps.len() * width);
+    for p in ps {
+        numbers.push(round_to(p[0], precision));
+        numbers.push(round_to(p[1], precision));
+        if has_alt {
+            numbers.push(round_to(p[2], ALTITUDE_DECIMALS));
+        }
+    }
+    JsonOut::Rows { numbers, width }
 }

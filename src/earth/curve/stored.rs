@@ -137,6 +137,7 @@ pub fn evaluate_curve(
             path,
             closed,
             fields,
+            spline: None,
             input_points: 0,
             output_points: points.len(),
             stored_numbers: stored,

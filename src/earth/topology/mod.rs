@@ -301,7 +301,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         let Some(kind) = kind else {
             let out = slot.process(job)?;
             stats.merge(&out.stats);
-            features[fi] = Some(out.feature);
+            features[fi] = Some(out.feature.into_value());
             continue;
         };
         let Source::Feature {
