@@ -6,7 +6,7 @@
 //!
 //! * **Memory bound.** The reader numbers each unit and must take a place in the [`Window`]
 //!   before handing it on; the writer gives the place back once the unit's output is written.
-//!   So at most `16 x threads` units (at least 32) (and about [`WINDOW_BYTES`] of their input) are
+//!   So at most `64 x threads` units (and about [`WINDOW_BYTES`] of their input) are
 //!   anywhere between reading and writing: queued, being processed, or finished and waiting
 //!   for an earlier one. Memory does not grow with the input; only the largest single record
 //!   matters (one record always gets in, however large).
@@ -31,8 +31,10 @@ use std::time::{Duration, Instant};
 pub const WINDOW_BYTES: usize = 64 << 20;
 
 /// Units in flight per worker thread: enough that a slow feature does not starve the pool
-/// while the writer waits for it.
-const UNITS_PER_THREAD: usize = 16;
+/// while the writer waits for it. At 16 the second worker of two sat idle for about 0.1 s
+/// of the 10m land outlines (Afro-Eurasia's last, serial steps holding up the writer); 64
+/// ran 4.6 % faster there (8 alternated runs), with the same peak memory.
+const UNITS_PER_THREAD: usize = 64;
 
 /// Places for units between the reader and the writer.
 pub struct Window {
@@ -55,7 +57,7 @@ impl Window {
         Window {
             state: Mutex::new(WindowState::default()),
             changed: Condvar::new(),
-            max_units: (UNITS_PER_THREAD * threads).max(32),
+            max_units: UNITS_PER_THREAD * threads.max(1),
             max_bytes: WINDOW_BYTES,
         }
     }
