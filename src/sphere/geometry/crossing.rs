@@ -134,7 +134,7 @@ impl RunBoxes {
 /// crosses itself (neighbouring segments, which share a vertex, never count).
 ///
 /// Every pair of segments whose boxes meet is tested with [`segments_cross`]; pairs are found
-/// by descending the two polylines' [`RunBoxes`] together, so a long border is not compared
+/// by descending the two polylines' run boxes (`RunBoxes`) together, so a long border is not compared
 /// segment by segment with every other (that quadratic scan was 57 % of a coverage fit of the
 /// 10m countries).
 pub fn polylines_cross(p: &[[f64; 3]], q: &[[f64; 3]], same: bool) -> bool {
