@@ -12,6 +12,7 @@ use super::curve::{
     json_kind, output_position, output_positions,
 };
 use super::curve::{curve_in_time, CurveOutput, CurveReport, LineTimeInput};
+use super::small_rings;
 use super::time::{motion, TimeOrigin, TIME_PROPERTIES};
 use super::{EarthError, Job, JsonOut, Operation, Problem};
 use rayon::prelude::*;
@@ -416,6 +417,16 @@ fn process_feature_at(
         Operation::Interpolate(_) => "interpolation",
         Operation::Evaluate => "evaluation",
     };
+    if let Some(mine) = map.get("properties").and_then(|p| p.get(key)) {
+        if !written_by_spherefit(mine) {
+            return Err(invalid(
+                format!("{pointer}/properties/{key}"),
+                format!(
+                    "the feature has its own property \"{key}\", where the {key} report goes: rename it (a \"{key}\" object spherefit wrote is replaced)"
+                ),
+            ));
+        }
+    }
     let mut props: BTreeMap<String, JsonOut> = match map.get("properties") {
         Some(Value::Object(p)) => p
             .iter()
@@ -431,6 +442,16 @@ fn process_feature_at(
     Ok(ProcessedFeature {
         feature: JsonOut::Object(out),
         stats,
+    })
+}
+
+/// Whether a `properties.fit` (or `interpolation`, `evaluation`) value is a report spherefit
+/// wrote, which a new run replaces (so a fitted output can be fitted again); any other value is
+/// the user's.
+fn written_by_spherefit(v: &Value) -> bool {
+    v.as_object().is_some_and(|m| {
+        m.contains_key("output_points")
+            && (m.contains_key("max_error_m") || m.contains_key("sampling_deviation_m"))
     })
 }
 
@@ -660,7 +681,16 @@ fn curves_of_geometry(
         return Ok(None);
     }
     let outputs = run_curves(&jobs, job)?;
-    assemble(kind, outputs, job).map(Some)
+    let (mut geometry_out, info, stats, extra) = assemble(kind, outputs, job)?;
+    // Foreign members of the geometry object come back with it (RFC 7946 §6.1).
+    if let JsonOut::Object(m) = &mut geometry_out {
+        for (k, v) in gmap {
+            if !matches!(k.as_str(), "type" | "coordinates" | "bbox") {
+                m.insert(k.clone(), JsonOut::Value(v.clone()));
+            }
+        }
+    }
+    Ok(Some((geometry_out, info, stats, extra)))
 }
 
 /// Checks a `bbox` member, if any: an array of 2n numbers, n >= 2 (RFC 7946 §5).
@@ -736,18 +766,57 @@ fn check_other_geometry(
         .ok_or_else(|| invalid(ptr, format!("a {kind} needs \"coordinates\"")))?;
     let cptr = format!("{ptr}/coordinates");
     if kind == "Point" {
-        super::curve::parse_positions(&Value::Array(vec![c.clone()]), "")
-            .map_err(|e| EarthError::new(format!("{cptr}{}", &e.pointer[2..]), e.problem))?;
-        Ok(())
+        check_position(c, &cptr)
     } else {
-        check_nested_positions(c, &cptr, 1)
+        for (i, p) in array_at(c, &cptr, "positions")?.iter().enumerate() {
+            check_position(p, &format!("{cptr}/{i}"))?;
+        }
+        Ok(())
     }
+}
+
+/// Checks one position of a geometry that passes through: an array of at least two numbers,
+/// longitude and latitude in range. Its other numbers (altitude, measures) are the user's and
+/// come back as they are, whatever the other positions have.
+fn check_position(p: &Value, ptr: &str) -> Result<(), EarthError> {
+    let nums = p.as_array().ok_or_else(|| {
+        EarthError::new(
+            ptr,
+            Problem::InvalidCoordinate(format!(
+                "a position is an array [longitude, latitude, ...], got {}",
+                json_kind(p)
+            )),
+        )
+    })?;
+    if nums.len() < 2 {
+        return Err(EarthError::new(
+            ptr,
+            Problem::InvalidCoordinate(format!(
+                "a position has at least 2 numbers ([longitude, latitude, ...]), this one has {}",
+                nums.len()
+            )),
+        ));
+    }
+    for (k, x) in nums.iter().enumerate().skip(2) {
+        if !x.is_number() {
+            return Err(EarthError::new(
+                format!("{ptr}/{k}"),
+                Problem::InvalidCoordinate(format!("expected a number, got {}", json_kind(x))),
+            ));
+        }
+    }
+    super::curve::parse_positions(&Value::Array(vec![Value::Array(nums[..2].to_vec())]), "")
+        .map_err(|e| EarthError::new(format!("{ptr}{}", &e.pointer[2..]), e.problem))?;
+    Ok(())
 }
 
 /// Checks arrays of positions nested `depth` deep (1: a line's positions).
 fn check_nested_positions(v: &Value, ptr: &str, depth: usize) -> Result<(), EarthError> {
     if depth == 1 {
-        return super::curve::parse_positions(v, ptr).map(|_| ());
+        for (i, p) in array_at(v, ptr, "positions")?.iter().enumerate() {
+            check_position(p, &format!("{ptr}/{i}"))?;
+        }
+        return Ok(());
     }
     for (i, x) in array_at(v, ptr, "arrays of positions")?.iter().enumerate() {
         check_nested_positions(x, &format!("{ptr}/{i}"), depth - 1)?;
@@ -870,7 +939,25 @@ fn run_curves(jobs: &[CurveJob<'_>], job: &Job) -> Result<Vec<CurveOutput>, Eart
         job.cancel
             .check()
             .map_err(|e| EarthError::new(c.pointer.clone(), Problem::Fit(e)))?;
-        one_curve(c, job)
+        let made = one_curve(c, job);
+        if !c.closed || matches!(job.operation, Operation::Evaluate) {
+            return made;
+        }
+        // A ring too small to fit, or one whose fit collapsed, is kept (small_rings): a
+        // feature is never refused for one of its rings being small.
+        let tolerance_m = match &job.operation {
+            Operation::FitToTolerance { tolerance_m, .. } => Some(*tolerance_m),
+            _ => None,
+        };
+        match made {
+            Err(e) if matches!(e.problem, Problem::TooFewPoints { .. }) => {
+                small_rings::keep(c.value, &c.pointer, c.path.clone(), tolerance_m).map(|k| k.0)
+            }
+            Ok(out) if small_rings::collapsed(&out, job.output.precision) => {
+                small_rings::keep(c.value, &c.pointer, c.path.clone(), tolerance_m).map(|k| k.0)
+            }
+            other => other,
+        }
     };
     if jobs.len() == 1 {
         return Ok(vec![one(&jobs[0])?]);
@@ -1081,7 +1168,19 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
         stats.stored_numbers += c.report.stored_numbers;
         stats.max_error_m = stats.max_error_m.max(c.report.max_error_m);
     }
-    let info = properties_object(kind, outputs.into_iter().map(|c| c.report).collect(), job);
+    // Rings kept whole because they were too small to fit (small_rings), by pointer, as
+    // shared fitting lists them.
+    let kept: Vec<String> = outputs
+        .iter()
+        .filter(|c| c.report.fields.contains_key("small_ring"))
+        .map(|c| c.pointer.clone())
+        .collect();
+    let mut info = properties_object(kind, outputs.into_iter().map(|c| c.report).collect(), job);
+    if kind.ends_with("Polygon") {
+        if let JsonOut::Object(m) = &mut info {
+            m.insert("kept_rings".into(), JsonOut::Value(json!(kept)));
+        }
+    }
     let mut extra = Vec::new();
     if let Some(name) = time_name {
         let value = if is_line_string && time_pieces.len() == 1 {

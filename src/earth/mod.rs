@@ -66,6 +66,7 @@ pub mod features;
 pub mod json_out;
 pub mod lonlat;
 pub mod sampling;
+pub mod small_rings;
 pub mod time;
 pub mod topojson;
 pub mod topology;

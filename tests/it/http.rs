@@ -557,7 +557,7 @@ async fn properties_ids_members_and_unfitted_features_round_trip() {
         "features": [
             {"type": "Feature", "id": "pt", "properties": {"a": [1, {"b": null}], "c": 1.5e-7},
              "geometry": {"type": "Point", "coordinates": [10.0, 20.0, 5.0]}},
-            {"type": "Feature", "id": 42, "properties": {"name": "line", "fit": "old"},
+            {"type": "Feature", "id": 42, "properties": {"name": "line"},
              "title": "foreign member",
              "geometry": {"type": "LineString", "coordinates": [[0, 0], [1, 0.5], [2, 0.2], [3, 0.9], [4, 0.1], [5, 0.6]]}},
             {"type": "Feature", "properties": null, "geometry": null},
@@ -576,7 +576,13 @@ async fn properties_ids_members_and_unfitted_features_round_trip() {
     assert_eq!(f[1]["id"], 42);
     assert_eq!(f[1]["title"], "foreign member");
     assert_eq!(f[1]["properties"]["name"], "line");
-    assert!(f[1]["properties"]["fit"].is_object(), "fit replaced");
+    assert!(f[1]["properties"]["fit"].is_object());
+    // A property of the user's named `fit` is refused with its pointer, not overwritten.
+    let mut clash = input.clone();
+    clash["features"][1]["properties"]["fit"] = json!("old");
+    let r = post_geo(&app, "/v1/fit", &clash).await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert_eq!(r.json()["pointer"], "/features/1/properties/fit");
 }
 
 /// A wavy line about 2,500 km long near (1, 0, 0), as unit vectors.

@@ -45,6 +45,7 @@ use super::curve::{
 use super::features::{process_feature, Document, FeatureStats, Source};
 use super::lonlat::{m_to_rad, rad_to_m, round_to, unit_to_lonlat};
 use super::sampling::{sample, AUTO_DEVIATION_FRACTION};
+use super::small_rings;
 use super::{EarthError, Job, Operation, Problem};
 use crate::sphere::fit::adaptive_knots::{turning_angles, CORNER_ANGLE_RAD};
 use crate::sphere::fit::seam::close_seam;
@@ -335,7 +336,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
             let mut poly_ll = Vec::new();
             for (ri, ring) in array_of(poly, pptr, "rings")?.iter().enumerate() {
                 let rptr = format!("{pptr}/{ri}");
-                // A ring of one distinct position bounds no area: kept here, dropped below.
+                // A ring of one distinct position bounds no area: read here, kept as it came below.
                 let line = match prepare_line(ring, &rptr, true, None) {
                     Ok((line, _, _)) => line,
                     Err(e) if matches!(e.problem, Problem::TooFewPoints { .. }) => {
@@ -488,7 +489,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     let mut per_feature_stored = 0usize;
     let mut input_points_total = 0usize;
     let mut output_points_total = 0usize;
-    let mut dropped_total: Vec<String> = Vec::new();
+    let mut kept_total: Vec<String> = Vec::new();
     for (fi, slot) in doc.slots.iter().enumerate() {
         let Some(kind) = polygon_kind[fi] else {
             continue;
@@ -502,44 +503,43 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         let mut arcs_used: Vec<usize> = Vec::new();
         let mut parts = Vec::new();
         let mut ring_uses_out = Vec::new();
-        let mut dropped: Vec<String> = Vec::new();
+        let mut kept: Vec<String> = Vec::new();
         for (pi, poly) in by_feature[fi].iter().enumerate() {
-            // Rings of under 3 distinct vertices bound no area: dropped (with their polygon's
-            // holes when it is the exterior), and listed.
-            let poly: Vec<(usize, &[ArcUse])> = if poly[0].1.is_empty() {
-                dropped.extend(poly.iter().map(|(ri, _)| sources[*ri].pointer.clone()));
-                continue;
-            } else {
-                dropped.extend(
-                    poly.iter()
-                        .filter(|(_, u)| u.is_empty())
-                        .map(|(ri, _)| sources[*ri].pointer.clone()),
-                );
-                poly.iter()
-                    .copied()
-                    .filter(|(_, u)| !u.is_empty())
-                    .collect()
-            };
-            let ll_rings: Vec<Vec<[f64; 2]>> = poly
-                .iter()
-                .map(|(_, uses)| ring_lonlat(uses, &fitted))
-                .collect();
-            for (r, (_, uses)) in poly.iter().enumerate() {
+            // A ring with no arcs (under 3 distinct vertices) or whose fitted outline bounds no
+            // area is kept as a triangle of its own vertices or as it came (small_rings), as
+            // per-feature fitting keeps it: a TopoJSON output then writes this feature's
+            // rings as arcs of their own.
+            let mut ll_rings: Vec<Vec<[f64; 2]>> = Vec::with_capacity(poly.len());
+            for (r, (ri, uses)) in poly.iter().enumerate() {
+                let fitted_ring = (!uses.is_empty())
+                    .then(|| ring_lonlat(uses, &fitted))
+                    .filter(|ring| !small_rings::collapsed_lonlat(ring));
                 let path = if kind == "Polygon" {
                     vec![r]
                 } else {
                     vec![pi, r]
                 };
-                parts.push(json!({
-                    "path": path,
-                    "arcs": uses.iter().map(ArcUse::topojson_index).collect::<Vec<_>>(),
-                }));
-                arcs_used.extend(uses.iter().map(|u| u.arc));
+                match fitted_ring {
+                    Some(ring) => {
+                        parts.push(json!({
+                            "path": path,
+                            "arcs": uses.iter().map(ArcUse::topojson_index).collect::<Vec<_>>(),
+                        }));
+                        arcs_used.extend(uses.iter().map(|u| u.arc));
+                        ll_rings.push(ring);
+                    }
+                    None => {
+                        let (ring, how) = small_rings::kept_lonlat(&rings[*ri].points, precision);
+                        parts.push(json!({"path": path, "arcs": [], "small_ring": how.name()}));
+                        kept.push(sources[*ri].pointer.clone());
+                        ll_rings.push(ring);
+                    }
+                }
             }
             if ll_rings.iter().all(|r| is_plain(r)) {
                 out_polys.push(json!(ll_rings));
                 out_ll.push(ll_rings);
-                ring_uses_out.push(poly.iter().map(|(_, u)| u.to_vec()).collect());
+                ring_uses_out.push(poly.iter().map(|(_, u)| u.to_vec()).collect::<Vec<_>>());
             } else {
                 split_any = true;
                 let split = split_at_antimeridian(&ll_rings, precision);
@@ -575,7 +575,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
             .iter()
             .filter(|&&a| graph.arcs[a].uses > 1)
             .count();
-        dropped_total.extend(dropped.iter().cloned());
+        kept_total.extend(kept.iter().cloned());
         let geometry = if out_polys.is_empty() {
             Value::Null
         } else if kind == "Polygon" && out_polys.len() == 1 {
@@ -583,6 +583,18 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         } else {
             json!({"type": "MultiPolygon", "coordinates": out_polys})
         };
+        // Foreign members of the input geometry come back with it (RFC 7946 §6.1).
+        let mut geometry = geometry;
+        if let (Some(g), Some(input)) = (
+            geometry.as_object_mut(),
+            feature.get("geometry").and_then(Value::as_object),
+        ) {
+            for (k, v) in input {
+                if !matches!(k.as_str(), "type" | "coordinates" | "bbox") {
+                    g.insert(k.clone(), v.clone());
+                }
+            }
+        }
         let mut info = Map::new();
         info.insert("topology".into(), json!("shared"));
         info.insert("tolerance_m".into(), json!(tolerance_m));
@@ -601,7 +613,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         info.insert("area_m2".into(), json!(round_to(area_out, 0)));
         info.insert("area_change".into(), json!(round_to(area_change, 9)));
         info.insert("antimeridian_split".into(), json!(split_any));
-        info.insert("dropped_rings".into(), json!(dropped));
+        info.insert("kept_rings".into(), json!(kept));
         info.insert(
             "tightened_arcs".into(),
             json!(feature_arcs
@@ -621,7 +633,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         props.insert("fit".into(), Value::Object(info));
         out.insert("properties".into(), Value::Object(props));
         features[fi] = Some(Value::Object(out));
-        if !split_any {
+        if !split_any && kept.is_empty() {
             feature_rings[fi] = Some(ring_uses_out);
         }
         max_two_way = max_two_way.max(tw);
@@ -657,7 +669,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         "stored_numbers_per_feature_sum": per_feature_stored,
         "compression_ratio": compression_ratio(input_points_total, stored_once),
         "max_area_change": round_to(area_change_max, 9),
-        "dropped_rings": dropped_total,
+        "kept_rings": kept_total,
         "tightened_arcs": tightened,
         "crossings_left": crossings_left.iter().map(|&(a, b)| [a, b]).collect::<Vec<_>>(),
     });
@@ -1311,16 +1323,23 @@ mod tests {
             }
         ));
         assert!(validate(&job(10.0), Topology::Shared, OutputFormat::TopoJson).is_ok());
-        // A ring that bounds no area is dropped and listed; a feature left without polygons
-        // gets a null geometry.
+        // A ring that bounds no area is kept as it came and listed, as per-feature fitting
+        // keeps it.
         let doc = Document::parse(
             json!({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 0], [1, 0], [0, 0]]]}),
             false,
         )
         .unwrap();
         let c = fit_coverage(doc, &job(10.0)).unwrap();
-        assert_eq!(c.report["dropped_rings"], json!(["/coordinates/0"]));
-        assert!(c.features[0]["geometry"].is_null());
+        assert_eq!(c.report["kept_rings"], json!(["/coordinates/0"]));
+        assert_eq!(
+            c.features[0]["geometry"]["coordinates"],
+            json!([[[0.0, 0.0], [1.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 0.0]]])
+        );
+        assert!(
+            c.feature_rings[0].is_none(),
+            "TopoJSON writes it as its own arcs"
+        );
         // Bad positions are still errors, with their pointer.
         let doc = Document::parse(
             json!({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 95], [0, 0]]]}),
