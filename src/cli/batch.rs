@@ -511,6 +511,15 @@ fn inputs(paths: &[PathBuf]) -> Result<Vec<Input>, Failure> {
 }
 
 /// True when `a` and `b` name the same existing file.
+/// A temporary name beside `path` (same directory, so the rename does not cross file
+/// systems): `.NAME.spherefit-PID.tmp`.
+fn temp_beside(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map_or_else(|| "output".into(), |n| n.to_string_lossy().into_owned());
+    path.with_file_name(format!(".{name}.spherefit-{}.tmp", std::process::id()))
+}
+
 fn same_file(a: &Path, b: &Path) -> bool {
     match (a.canonicalize(), b.canonicalize()) {
         (Ok(x), Ok(y)) => x == y,
@@ -553,12 +562,15 @@ fn run(
         .into_iter()
         .find(|f| *f != Format::Auto)
         .unwrap_or(Format::Geojson);
-    let writer: Box<dyn Write> = match out_path {
-        Some(p) => Box::new(
-            std::fs::File::create(p)
+    // A file is written beside its name and renamed when the run did not fail, so a run cut
+    // short by a fatal error leaves no complete-looking output (and an existing file as it was).
+    let temp_path = out_path.map(|p| temp_beside(p));
+    let writer: Box<dyn Write> = match (out_path, &temp_path) {
+        (Some(p), Some(t)) => Box::new(
+            std::fs::File::create(t)
                 .map_err(|e| Failure::input(format!("{}: {e}", p.display())))?,
         ),
-        None => Box::new(io::stdout().lock()),
+        _ => Box::new(io::stdout().lock()),
     };
     let mut sink = Sink::new(io::BufWriter::with_capacity(256 << 10, writer), out_format);
     let total_bytes = inputs.iter().map(|i| i.size).sum::<Option<u64>>();
@@ -579,7 +591,21 @@ fn run(
         pipeline::run(first, rest, &mut sink, &settings, &mut progress, &mut |m| {
             stderr_line(&format!("spherefit: {m}"))
         });
+    let fatal = match sink.flush() {
+        Err(e) if fatal.is_none() && !totals.output_closed => Some(Fatal::Output(e)),
+        _ => fatal,
+    };
     drop(sink);
+    if let (Some(p), Some(t)) = (out_path, &temp_path) {
+        if fatal.is_none() {
+            std::fs::rename(t, p).map_err(|e| {
+                let _ = std::fs::remove_file(t);
+                Failure::input(format!("{}: cannot write: {e}", p.display()))
+            })?;
+        } else {
+            let _ = std::fs::remove_file(t);
+        }
+    }
     let seconds = started.elapsed().as_secs_f64();
     let summary = Summary {
         command,

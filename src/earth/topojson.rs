@@ -74,15 +74,18 @@ fn convert(g: &Value, arcs: &mut Vec<Value>) -> Value {
     let list = |v: &Value| v.as_array().cloned().unwrap_or_default();
     match kind {
         "Point" | "MultiPoint" => json!({"type": kind, "coordinates": c}),
+        // A LineString's `arcs` is one list of arc indices; a MultiLineString's and a Polygon's
+        // one such list per line or ring; a MultiPolygon's one per ring of each polygon. Every
+        // line and ring here is one arc of its own, so each list holds one index.
         "LineString" => json!({"type": kind, "arcs": [new_arc(c)]}),
         "MultiLineString" | "Polygon" => {
-            let refs: Vec<i64> = list(c).iter().map(&mut new_arc).collect();
+            let refs: Vec<[i64; 1]> = list(c).iter().map(|r| [new_arc(r)]).collect();
             json!({"type": kind, "arcs": refs})
         }
         "MultiPolygon" => {
-            let refs: Vec<Vec<i64>> = list(c)
+            let refs: Vec<Vec<[i64; 1]>> = list(c)
                 .iter()
-                .map(|p| list(p).iter().map(&mut new_arc).collect())
+                .map(|p| list(p).iter().map(|r| [new_arc(r)]).collect())
                 .collect();
             json!({"type": kind, "arcs": refs})
         }
@@ -119,4 +122,45 @@ pub fn to_bytes(topology: &Value) -> Vec<u8> {
     }
     out.push(b'}');
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// How many array levels sit above the arc indices (0 for an index itself).
+    fn depth(v: &Value) -> usize {
+        match v {
+            Value::Array(a) => 1 + a.iter().map(depth).max().unwrap_or(0),
+            _ => 0,
+        }
+    }
+
+    #[test]
+    fn geometries_with_arcs_of_their_own_nest_their_indices_as_topojson_says() {
+        let line = json!([[0, 0], [1, 1]]);
+        let ring = json!([[0, 0], [1, 0], [1, 1], [0, 0]]);
+        let mut arcs = Vec::new();
+        for (g, levels) in [
+            (json!({"type": "LineString", "coordinates": line}), 1),
+            (
+                json!({"type": "MultiLineString", "coordinates": [line, line]}),
+                2,
+            ),
+            (json!({"type": "Polygon", "coordinates": [ring]}), 2),
+            (
+                json!({"type": "MultiPolygon", "coordinates": [[ring], [ring, ring]]}),
+                3,
+            ),
+        ] {
+            let t = convert(&g, &mut arcs);
+            assert_eq!(depth(&t["arcs"]), levels, "{g} -> {t}");
+        }
+        let t = convert(
+            &json!({"type": "MultiPolygon", "coordinates": [[ring], [ring, ring]]}),
+            &mut arcs,
+        );
+        assert_eq!(t["arcs"], json!([[[6]], [[7], [8]]]));
+        assert_eq!(arcs.len(), 9);
+    }
 }

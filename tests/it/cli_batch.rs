@@ -658,3 +658,108 @@ fn nothing_to_fit_passes_through_with_a_warning() {
     assert!(o.stdout.is_empty());
     assert!(stderr(&o).contains("no records"));
 }
+
+/// A leading UTF-8 byte order mark is skipped, as the service skips it: through stdin (the
+/// streamed reader, the format probe) and from a file (read whole), detected or forced.
+#[test]
+fn a_leading_byte_order_mark_is_skipped_on_stdin_and_in_files() {
+    let dir = scratch("bom");
+    let doc = serde_json::to_vec(&tracks_collection()).unwrap();
+    let bom = |b: &[u8]| [&b"\xef\xbb\xbf"[..], b].concat();
+    let plain = run_ok(&["fit", "--tolerance-m", "50", "-"], Some(&doc));
+    assert_eq!(json_of(&plain)["features"].as_array().unwrap().len(), 6);
+    let path = dir.join("bom.geojson");
+    std::fs::write(&path, bom(&doc)).unwrap();
+    let file = path.to_str().unwrap();
+    for (args, stdin) in [
+        (vec!["fit", "--tolerance-m", "50", "-"], Some(bom(&doc))),
+        (
+            vec!["fit", "--tolerance-m", "50", "--format", "geojson", "-"],
+            Some(bom(&doc)),
+        ),
+        (vec!["fit", "--tolerance-m", "50", file], None),
+        (
+            vec!["fit", "--tolerance-m", "50", "--format", "geojson", file],
+            None,
+        ),
+    ] {
+        let out = run_ok(&args, stdin.as_deref());
+        assert_eq!(out, plain, "{args:?}");
+    }
+    // A text sequence after a BOM is still told apart (and written as one).
+    let seq = read_fixture(TRACKS);
+    let plain = run_ok(&["fit", "--tolerance-m", "50", "-"], Some(&seq));
+    let out = run_ok(&["fit", "--tolerance-m", "50", "-"], Some(&bom(&seq)));
+    assert_eq!(seq_records(&out).len(), 6);
+    assert_eq!(out, plain);
+}
+
+/// A FeatureCollection whose third feature is cut short: two features, then broken JSON.
+fn collection_cut_short() -> Vec<u8> {
+    let f = seq_records(&read_fixture(TRACKS));
+    let mut text = format!(
+        "{{\"type\": \"FeatureCollection\", \"features\": [\n{},\n{},\n",
+        f[0], f[1]
+    );
+    let third = f[2].to_string();
+    text.push_str(&third[..third.len() / 2]);
+    text.into_bytes()
+}
+
+/// A fatal error mid-document (JSON syntax) exits 2 and leaves nothing that looks complete: on
+/// stdout no closing bracket, with `-o` no file (an existing one untouched, no temporary file
+/// left). Per-record failures are not fatal: the rest is still written to the file.
+#[test]
+fn a_document_cut_short_leaves_no_output_that_looks_complete() {
+    let dir = scratch("cut_short");
+    let text = collection_cut_short();
+    let path = dir.join("cut.geojson");
+    std::fs::write(&path, &text).unwrap();
+    let input = path.to_str().unwrap().to_string();
+    // Streamed from stdin, and read whole from the file.
+    for (args, stdin) in [
+        (vec!["fit", "-"], Some(text.as_slice())),
+        (vec!["fit", input.as_str()], None),
+    ] {
+        let o = run(&args, stdin);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("not a valid GeoJSON document"));
+        let out = String::from_utf8(o.stdout).unwrap();
+        assert!(out.contains("\"features\""), "{args:?}: {out}");
+        assert!(
+            serde_json::from_str::<Value>(&out).is_err(),
+            "{args:?}: the output parses as complete: {out}"
+        );
+        // The features before the error are there, the collection's `]}` is not.
+        assert!(out.contains("\"id\":2"), "{args:?}: {out}");
+        assert!(!out.trim_end().ends_with("]}"), "{args:?}: {out}");
+    }
+    let out = dir.join("out.geojson");
+    let out_s = out.to_str().unwrap();
+    let o = run(&["fit", input.as_str(), "-o", out_s], None);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!out.exists(), "a cut-short run wrote {out_s}");
+    std::fs::write(&out, b"old").unwrap();
+    let o = run(&["fit", "-", "-o", out_s], Some(&text));
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&out).unwrap(), b"old");
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    let mut sorted = names.clone();
+    sorted.sort();
+    assert_eq!(
+        sorted,
+        ["cut.geojson", "out.geojson"],
+        "left behind: {names:?}"
+    );
+    // Bad records (exit 1) are reported and the others written: the file replaces the old one.
+    let o = run(&["fit", &fixture_path(BAD), "-o", out_s], None);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(seq_records(&std::fs::read(&out).unwrap()).len(), 6);
+    // A whole run writes the file too.
+    let o = run(&["fit", &fixture_path(TRACKS), "-o", out_s], None);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(seq_records(&std::fs::read(&out).unwrap()).len(), 6);
+}

@@ -579,6 +579,89 @@ fn the_cli_writes_topojson_that_gdal_and_mapshaper_read() {
     assert!(!info.contains("ERROR"), "{info}");
 }
 
+/// How many array levels sit above the arc indices of a TopoJSON geometry's `arcs`.
+fn arc_depth(v: &Value) -> usize {
+    match v {
+        Value::Array(a) => 1 + a.iter().map(arc_depth).max().unwrap_or(0),
+        _ => 0,
+    }
+}
+
+/// Russia, Fiji and Antarctica are split at ±180 in the output, so their polygons get arcs of
+/// their own (one per ring): those were written one level short (`[594]` for a polygon instead
+/// of `[[594]]`), which GDAL read as an empty MultiPolygon.
+#[test]
+fn topojson_of_polygons_split_at_the_antimeridian_nests_polygons_rings_and_arcs() {
+    let dir = scratch("antimeridian");
+    let topo = dir.join("world.topojson");
+    let geo = dir.join("world.geojson");
+    let input = fixture_path("coverage_world_110m.geojson");
+    for (path, format) in [(&topo, "topojson"), (&geo, "geojson")] {
+        let o = run_spherefit(
+            &[
+                "fit",
+                "--topology",
+                "shared",
+                "--tolerance-m",
+                "1000",
+                "--output-format",
+                format,
+                &input,
+                "-o",
+                path.to_str().unwrap(),
+            ],
+            None,
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let t: Value = serde_json::from_slice(&std::fs::read(&topo).unwrap()).unwrap();
+    let g: Value = serde_json::from_slice(&std::fs::read(&geo).unwrap()).unwrap();
+    let arcs = t["arcs"].as_array().unwrap();
+    let geoms = t["objects"]["collection"]["geometries"].as_array().unwrap();
+    let feats = g["features"].as_array().unwrap();
+    assert_eq!(geoms.len(), 177);
+    assert_eq!(geoms.len(), feats.len());
+    let mut split = 0;
+    for (tg, f) in geoms.iter().zip(feats) {
+        let kind = tg["type"].as_str().unwrap();
+        assert_eq!(kind, f["geometry"]["type"], "feature {}", f["id"]);
+        let levels = match kind {
+            "Polygon" => 2,
+            "MultiPolygon" => 3,
+            other => panic!("feature {}: {other}", f["id"]),
+        };
+        assert_eq!(
+            arc_depth(&tg["arcs"]),
+            levels,
+            "feature {} {kind}: {}",
+            f["id"],
+            tg["arcs"]
+        );
+        let polys: Vec<&Value> = if kind == "Polygon" {
+            vec![&tg["arcs"]]
+        } else {
+            tg["arcs"].as_array().unwrap().iter().collect()
+        };
+        let decoded: Vec<Vec<Ring>> = polys
+            .iter()
+            .map(|p| {
+                p.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|r| decode_ring(arcs, r))
+                    .collect()
+            })
+            .collect();
+        assert_eq!(decoded, polygons(&f["geometry"]), "feature {}", f["id"]);
+        if f["properties"]["fit"]["antimeridian_split"] == true {
+            split += 1;
+        }
+    }
+    // Fiji, Russia and Antarctica (the bug's three).
+    assert!(split >= 3, "{split} features split at the antimeridian");
+    mapshaper_reads(&topo, 177);
+}
+
 /// mapshaper (npm, `npm ci --prefix scripts/coverage`, which `.ci/run` does) reads the TopoJSON
 /// and finds every feature. Skipped with a notice where it is not installed, unless
 /// `SPHEREFIT_TEST_TOOLS=required` (set by `.ci/run`).

@@ -88,6 +88,62 @@ impl<R: Read> Read for Counting<R> {
     }
 }
 
+/// The UTF-8 byte order mark, which some editors write at the start of a file.
+const BOM: [u8; 3] = [0xef, 0xbb, 0xbf];
+
+/// A reader that drops a leading UTF-8 byte order mark: RFC 8259 lets a parser ignore one, and
+/// the service does; everything after it (the format probe, the whole-file and the streamed
+/// document paths, sequences) reads the input without it. Bytes are counted below it, so
+/// progress still adds up to the file's size.
+struct SkipBom<R> {
+    inner: R,
+    /// The first bytes (up to 3) while they are being served, and how many were served.
+    head: Option<([u8; 3], usize, usize)>,
+    started: bool,
+}
+
+impl<R: Read> SkipBom<R> {
+    fn new(inner: R) -> Self {
+        SkipBom {
+            inner,
+            head: None,
+            started: false,
+        }
+    }
+}
+
+impl<R: Read> Read for SkipBom<R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if !self.started {
+            // Up to three bytes, however the input hands them out (a pipe may give one).
+            let mut first = [0u8; 3];
+            let mut n = 0;
+            while n < 3 {
+                match self.inner.read(&mut first[n..]) {
+                    Ok(0) => break,
+                    Ok(k) => n += k,
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                    Err(e) => return Err(e),
+                }
+            }
+            self.started = true;
+            if first != BOM {
+                self.head = Some((first, 0, n));
+            }
+        }
+        if let Some((first, at, n)) = &mut self.head {
+            if *at < *n {
+                let k = (*n - *at).min(buf.len());
+                buf[..k].copy_from_slice(&first[*at..*at + k]);
+                *at += k;
+                return Ok(k);
+            }
+            self.head = None;
+        }
+        self.inner.read(buf)
+    }
+}
+
 /// An input opened and its format known.
 pub struct Opened {
     /// Index of the input on the command line.
@@ -115,10 +171,10 @@ pub fn open(input: &Input, index: usize, forced: Format) -> Result<Opened, Strin
     };
     let mut reader = BufReader::with_capacity(
         BUFFER_BYTES,
-        Counting {
+        SkipBom::new(Counting {
             inner: raw,
             count: count.clone(),
-        },
+        }),
     );
     let (format, prefix) = if forced == Format::Auto {
         detect(&mut reader).map_err(|e| format!("{}: cannot read: {e}", input.name))?
@@ -740,5 +796,52 @@ mod tests {
             })
             .collect();
         assert_eq!(lines, vec![Some(1), Some(3)]);
+    }
+
+    /// Hands out one byte per read, as a slow pipe may.
+    struct Trickle(Vec<u8>, usize);
+
+    impl Read for Trickle {
+        fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+            if self.1 == self.0.len() || buf.is_empty() {
+                return Ok(0);
+            }
+            buf[0] = self.0[self.1];
+            self.1 += 1;
+            Ok(1)
+        }
+    }
+
+    #[test]
+    fn a_leading_byte_order_mark_is_dropped_and_nothing_else() {
+        let read = |bytes: &[u8], trickle: bool| {
+            let mut out = Vec::new();
+            if trickle {
+                SkipBom::new(Trickle(bytes.to_vec(), 0))
+                    .read_to_end(&mut out)
+                    .unwrap();
+            } else {
+                SkipBom::new(bytes).read_to_end(&mut out).unwrap();
+            }
+            out
+        };
+        for trickle in [false, true] {
+            assert_eq!(read(b"\xef\xbb\xbf{\"a\":1}", trickle), b"{\"a\":1}");
+            assert_eq!(read(b"\xef\xbb\xbf", trickle), b"");
+            // Only one, only at the start; short inputs come back whole.
+            assert_eq!(
+                read(b"\xef\xbb\xbf\xef\xbb\xbf{}", trickle),
+                b"\xef\xbb\xbf{}"
+            );
+            assert_eq!(read(b"{}\xef\xbb\xbf", trickle), b"{}\xef\xbb\xbf");
+            assert_eq!(read(b"\xef\xbb{}", trickle), b"\xef\xbb{}");
+            assert_eq!(read(b"{}", trickle), b"{}");
+            assert_eq!(read(b"", trickle), b"");
+        }
+        // The format probe sees the input without it.
+        let mut r = BufReader::new(SkipBom::new(
+            &b"\xef\xbb\xbf\x1e{\"type\":\"Feature\"}\n"[..],
+        ));
+        assert_eq!(detect(&mut r).unwrap().0, Format::Seq);
     }
 }

@@ -374,8 +374,8 @@ pub enum Fatal {
 
 /// Runs the pipeline over `first` (already opened) and the `rest` of the inputs, writing to
 /// `sink`. Per-record errors go to `errors` in input order. Returns the totals and the first
-/// fatal error, if any (records before it are written and the output is still closed
-/// properly).
+/// fatal error, if any (records before it are written; after a fatal error the output is
+/// not closed, so that it does not look complete).
 pub fn run<W: Write>(
     first: Opened,
     rest: Vec<(usize, Input)>,
@@ -493,23 +493,24 @@ pub fn run<W: Write>(
     }
     window.close();
     drop(rx);
-    if fatal.is_none() && !totals.output_closed {
-        if let Err(e) = sink.finish() {
-            fatal = output_error(e, &mut totals);
-        }
-    }
-    progress.clear();
     if fatal.is_some() || totals.output_closed {
+        progress.clear();
         // The reader may be blocked reading (a terminal, a slow pipe): it stops at its next
         // record, or with the process; its errors no longer matter.
         return (totals, fatal);
     }
+    // Every record arrived, so the reader has returned: its verdict comes before the closing
+    // bracket, which is not written after a fatal input error (the output must not look
+    // complete).
     let read = reader
         .join()
         .unwrap_or_else(|_| Err(ReadError::Fatal("the reader thread panicked".into())));
     if let Err(ReadError::Fatal(m)) = read {
         fatal = Some(Fatal::Input(m));
+    } else if let Err(e) = sink.finish() {
+        fatal = output_error(e, &mut totals);
     }
+    progress.clear();
     (totals, fatal)
 }
 
