@@ -160,7 +160,8 @@ mod tests {
             &json!({"type": "MultiPolygon", "coordinates": [[ring], [ring, ring]]}),
             &mut arcs,
         );
-        assert_eq!(t["arcs"], json!([[[6]], [[7], [8]]]));
-        assert_eq!(arcs.len(), 9);
+        // 7 arcs before: 1 + 2 (lines) + 1 + 3 (rings).
+        assert_eq!(t["arcs"], json!([[[7]], [[8], [9]]]));
+        assert_eq!(arcs.len(), 10);
     }
 }
