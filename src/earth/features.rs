@@ -6,15 +6,18 @@
 //! so callers may run them in parallel or stream them; [`Document::into_feature_collection`]
 //! puts the results back together in order, with the collection's foreign members.
 
-use super::antimeridian::{cut_line, split_polygon, SphereRing};
+use super::antimeridian::rejoin::rejoin_cut_polygons;
+use super::antimeridian::{cut_line, split_polygon};
 use super::curve::{
     compression_ratio, evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line,
     json_kind, output_position, output_positions,
 };
 use super::curve::{curve_in_time, CurveOutput, CurveReport, LineTimeInput};
+use super::lonlat::lonlat_to_unit;
 use super::small_rings;
 use super::time::{motion, TimeOrigin, TIME_PROPERTIES};
 use super::{EarthError, Job, JsonOut, Operation, Problem};
+use crate::sphere::geometry::crossing::polylines_cross;
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
@@ -677,10 +680,45 @@ fn curves_of_geometry(
             }
         }
     }
+    // Polygons cut at ±180 (parts on either side, polar caps closed along the meridian and
+    // the pole) are fitted as the rings on the sphere they are.
+    let rejoined = match kind {
+        "Polygon" => rejoin_cut_polygons(&[(cptr.clone(), coords)]),
+        "MultiPolygon" => coords.as_array().and_then(|polys| {
+            let polys: Vec<(String, &Value)> = polys
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (format!("{cptr}/{i}"), p))
+                .collect();
+            rejoin_cut_polygons(&polys)
+        }),
+        _ => None,
+    };
+    let kind = match &rejoined {
+        Some(polys) if kind == "Polygon" && polys.len() == 1 => "Polygon",
+        Some(_) => "MultiPolygon",
+        None => kind,
+    };
+    if let Some(polys) = &rejoined {
+        jobs.clear();
+        for (i, poly) in polys.iter().enumerate() {
+            for (r, (pointer, ring)) in poly.iter().enumerate() {
+                let path = if kind == "Polygon" {
+                    vec![r]
+                } else {
+                    vec![i, r]
+                };
+                jobs.push(mk(ring, pointer.clone(), path, true, None));
+            }
+        }
+    }
     if jobs.is_empty() {
         return Ok(None);
     }
-    let outputs = run_curves(&jobs, job)?;
+    let mut outputs = run_curves(&jobs, job)?;
+    if kind.ends_with("Polygon") {
+        tighten_crossing_rings(&jobs, &mut outputs, job)?;
+    }
     let (mut geometry_out, info, stats, extra) = assemble(kind, outputs, job)?;
     // Foreign members of the geometry object come back with it (RFC 7946 §6.1).
     if let JsonOut::Object(m) = &mut geometry_out {
@@ -969,6 +1007,112 @@ fn run_curves(jobs: &[CurveJob<'_>], job: &Job) -> Result<Vec<CurveOutput>, Eart
         .collect()
 }
 
+/// How many times a ring whose fit crosses itself or another ring of its polygon is refitted at
+/// half its tolerance (as the shared fit does with its arcs).
+const TIGHTEN_ROUNDS: usize = 3;
+
+/// Validity: the fitted rings of one polygon (exterior and holes) must not cross themselves or
+/// each other where the input's rings did not. At a loose tolerance a fitted ring can cut across
+/// a narrow inlet or touch its hole (Antarctica's peninsula at 10 km does); each ring of such a
+/// pair is refitted at half its tolerance, up to [`TIGHTEN_ROUNDS`] times, and its report gives
+/// the tolerance it was fitted to. Only tolerance fits tighten: a fit to a fixed number of
+/// control points, or an interpolation, is what was asked for.
+fn tighten_crossing_rings(
+    jobs: &[CurveJob<'_>],
+    outputs: &mut [CurveOutput],
+    job: &Job,
+) -> Result<(), EarthError> {
+    let Operation::FitToTolerance {
+        options,
+        tolerance_m,
+    } = &job.operation
+    else {
+        return Ok(());
+    };
+    // Rings by polygon: the path without its last index.
+    let mut polygons: BTreeMap<&[usize], Vec<usize>> = BTreeMap::new();
+    for (i, c) in jobs.iter().enumerate() {
+        if c.closed && !c.path.is_empty() {
+            polygons
+                .entry(&c.path[..c.path.len() - 1])
+                .or_default()
+                .push(i);
+        }
+    }
+    let pairs: Vec<(usize, usize)> = polygons
+        .values()
+        .flat_map(|rings| {
+            rings
+                .iter()
+                .enumerate()
+                .flat_map(move |(k, &a)| rings[k..].iter().map(move |&b| (a, b)))
+        })
+        .collect();
+    let cross = |p: &[[f64; 3]], q: &[[f64; 3]], same| polylines_cross(p, q, same);
+    let input: Vec<Vec<[f64; 3]>> = jobs.iter().map(|c| ring_units(c.value)).collect();
+    let input_crossing: Vec<bool> = pairs
+        .par_iter()
+        .map(|&(a, b)| cross(&input[a], &input[b], a == b))
+        .collect();
+    let mut tolerance = vec![*tolerance_m; jobs.len()];
+    for _ in 0..TIGHTEN_ROUNDS {
+        let crossing: Vec<(usize, usize)> = pairs
+            .par_iter()
+            .zip(&input_crossing)
+            .filter(|&(&(a, b), &was)| {
+                !was && cross(&outputs[a].points, &outputs[b].points, a == b)
+            })
+            .map(|(&p, _)| p)
+            .collect();
+        if crossing.is_empty() {
+            break;
+        }
+        let mut redo: Vec<usize> = crossing.iter().flat_map(|&(a, b)| [a, b]).collect();
+        redo.sort_unstable();
+        redo.dedup();
+        let refits: Vec<(usize, CurveOutput)> = redo
+            .par_iter()
+            .map(|&i| {
+                let _scope = job.cancel.enter();
+                let c = &jobs[i];
+                let t = 0.5 * tolerance[i];
+                fit_line_to_tolerance(
+                    c.value,
+                    &c.pointer,
+                    c.path.clone(),
+                    c.closed,
+                    options,
+                    t,
+                    &job.output,
+                    &job.limits,
+                    c.times.as_ref(),
+                )
+                .map(|out| (i, out))
+            })
+            .collect::<Result<_, _>>()?;
+        for (i, out) in refits {
+            tolerance[i] *= 0.5;
+            // A refit that collapsed (or shrank below a triangle) keeps the earlier fit.
+            if !small_rings::collapsed(&out, job.output.precision) {
+                outputs[i] = out;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A ring's positions as unit vectors (positions that are not two numbers are skipped: they
+/// were refused before any fit ran).
+fn ring_units(ring: &Value) -> Vec<[f64; 3]> {
+    ring.as_array()
+        .map(|ps| {
+            ps.iter()
+                .filter_map(|p| Some(lonlat_to_unit(p.get(0)?.as_f64()?, p.get(1)?.as_f64()?)))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 /// A stored curve with more control points (or segments) than the limit is refused before it is
 /// read.
 fn check_stored_size(c: &CurveJob<'_>, limits: &super::Limits) -> Result<(), EarthError> {
@@ -1134,17 +1278,21 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
             let mut pieces = Vec::new();
             for (_, rings) in &polygons {
                 let has_alt = rings.iter().all(|r| r.has_alt);
-                let sphere_rings: Vec<SphereRing> = rings
+                let lonlat_rings: Vec<Vec<[f64; 3]>> = rings
                     .iter()
-                    .map(|r| SphereRing {
-                        points: r.points.clone(),
-                        alts: r.alts.clone(),
+                    .map(|r| {
+                        r.points
+                            .iter()
+                            .zip(&r.alts)
+                            .map(|(p, &alt)| {
+                                let (lon, lat) = super::lonlat::unit_to_lonlat(p);
+                                [lon, lat, alt]
+                            })
+                            .collect()
                     })
                     .collect();
-                let split = split_polygon(&sphere_rings).map_err(|m| {
-                    let ptr = rings.first().map_or("", |r| r.pointer.as_str());
-                    EarthError::new(ptr, Problem::InvalidRing(m))
-                })?;
+                // Output positions are rounded when written; the pieces need no rounding here.
+                let split = split_polygon(&lonlat_rings, &|x| x);
                 for poly in split {
                     pieces.push(JsonOut::Array(
                         poly.iter()

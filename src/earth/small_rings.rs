@@ -5,7 +5,9 @@
 //! be fitted at all. Written as they come, both give rings that RFC 7946 forbids (fewer than four
 //! positions) or that bound no area, and refusing them would refuse the whole feature. So such a
 //! ring is kept, as mapshaper's `keep-shapes` keeps it: as the triangle of three of its own
-//! positions that spans it, or as it came when it has fewer than three distinct positions. Its
+//! positions that spans it (with more of its positions where an input position would be farther
+//! than the tolerance from the triangle), or as it came when it has fewer than three distinct
+//! positions. Its
 //! report says so (`small_ring`), with its distance to the input measured, not assumed.
 
 use serde_json::{json, Map, Value};
@@ -76,6 +78,60 @@ fn spanning_triangle(points: &[[f64; 3]]) -> Option<[usize; 3]> {
     Some(idx)
 }
 
+/// The input positions a kept ring is written with (indices into `points`, in ring order,
+/// closed): the spanning triangle, then, while some input position is farther than
+/// `tolerance_rad` from the edge of the span it lies in, that farthest position too (as
+/// Douglas–Peucker adds them), so that an islet wider than a triangle allows comes back within
+/// the tolerance with as few of its own positions as that needs. `None` when the ring has fewer
+/// than three distinct positions.
+fn kept_indices(points: &[[f64; 3]], tolerance_rad: Option<f64>) -> Option<Vec<usize>> {
+    let [a, b, c] = spanning_triangle(points)?;
+    let last = points.len() - 1;
+    // The closing repeat (if any) is the first position again: spans run to `end`.
+    let end = if points[last] == points[0] {
+        last
+    } else {
+        points.len()
+    };
+    let mut idx = vec![a, b, c];
+    if let Some(tol) = tolerance_rad {
+        loop {
+            // The farthest position from the edge of its span, over every span.
+            let mut worst: Option<(f64, usize, usize)> = None;
+            for k in 0..idx.len() {
+                let (i, j) = (
+                    idx[k],
+                    if k + 1 < idx.len() {
+                        idx[k + 1]
+                    } else {
+                        idx[0] + end
+                    },
+                );
+                for m in i + 1..j {
+                    let q = &points[m % end];
+                    let d = distance_to_arc(q, &points[i % end], &points[j % end]);
+                    if d > tol && worst.is_none_or(|w| d > w.0) {
+                        worst = Some((d, m % end, k + 1));
+                    }
+                }
+            }
+            match worst {
+                Some((_, m, at)) => {
+                    // Positions past the last kept one wrap round: keep ring order.
+                    if m < idx[0] {
+                        idx.insert(0, m);
+                    } else {
+                        idx.insert(at, m);
+                    }
+                }
+                None => break,
+            }
+        }
+    }
+    idx.push(idx[0]);
+    Some(idx)
+}
+
 /// Largest distance (radians) from any of `from` to the closed outline through `ring`.
 fn max_distance_to_outline(from: &[[f64; 3]], ring: &[[f64; 3]]) -> f64 {
     from.iter()
@@ -124,9 +180,13 @@ pub fn collapsed_lonlat(ring: &[[f64; 2]]) -> bool {
 /// A ring (unit vectors, as it came) kept as lon/lat positions rounded at `precision`: the
 /// closed triangle of three of its positions, or all its positions when it has fewer than
 /// three distinct ones.
-pub fn kept_lonlat(points: &[[f64; 3]], precision: u32) -> (Vec<[f64; 2]>, Kept) {
-    let (idx, how): (Vec<usize>, Kept) = match spanning_triangle(points) {
-        Some([a, b, c]) => (vec![a, b, c, a], Kept::Triangle),
+pub fn kept_lonlat(
+    points: &[[f64; 3]],
+    tolerance_rad: Option<f64>,
+    precision: u32,
+) -> (Vec<[f64; 2]>, Kept) {
+    let (idx, how): (Vec<usize>, Kept) = match kept_indices(points, tolerance_rad) {
+        Some(idx) => (idx, Kept::Triangle),
         None => ((0..points.len()).collect(), Kept::Input),
     };
     let ring = idx
@@ -142,7 +202,8 @@ pub fn kept_lonlat(points: &[[f64; 3]], precision: u32) -> (Vec<[f64; 2]>, Kept)
 /// How a kept ring is written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kept {
-    /// The triangle of three of its positions.
+    /// The triangle of three of its positions, with more of them where the tolerance needs
+    /// them (`kept_indices`).
     Triangle,
     /// Its positions as they came (fewer than three distinct ones).
     Input,
@@ -171,8 +232,9 @@ pub fn keep(
     tolerance_m: Option<f64>,
 ) -> Result<(CurveOutput, Kept), EarthError> {
     let line: LinePositions = parse_positions(value, pointer)?;
-    let (kept_idx, how): (Vec<usize>, Kept) = match spanning_triangle(&line.points) {
-        Some([a, b, c]) => (vec![a, b, c, a], Kept::Triangle),
+    let tolerance_rad = tolerance_m.map(super::lonlat::m_to_rad);
+    let (kept_idx, how): (Vec<usize>, Kept) = match kept_indices(&line.points, tolerance_rad) {
+        Some(idx) => (idx, Kept::Triangle),
         None => ((0..line.points.len()).collect(), Kept::Input),
     };
     let points: Vec<[f64; 3]> = kept_idx.iter().map(|&i| line.points[i]).collect();
@@ -289,6 +351,39 @@ mod tests {
         assert_eq!(out.points.len(), 4);
         assert_eq!(out.report.fields["tolerance_met"], json!(true));
         assert_eq!(out.report.fields["small_ring"], json!("kept_as_input"));
+    }
+
+    #[test]
+    fn a_kept_ring_takes_as_many_of_its_positions_as_the_tolerance_needs() {
+        // A square islet of about 22 km: its spanning triangle leaves a corner 15 km out.
+        let ps = [
+            [10.0, 50.0],
+            [10.1, 50.0],
+            [10.2, 50.0],
+            [10.3, 50.0],
+            [10.3, 50.1],
+            [10.3, 50.2],
+            [10.15, 50.2],
+            [10.0, 50.2],
+            [10.0, 50.1],
+            [10.0, 50.0],
+        ];
+        let input: Vec<[f64; 3]> = ps.iter().map(|p| lonlat_to_unit(p[0], p[1])).collect();
+        let triangle = kept_indices(&input, None).unwrap();
+        assert_eq!(triangle.len(), 4);
+        let outline: Vec<[f64; 3]> = triangle.iter().map(|&i| input[i]).collect();
+        let loose = rad_to_m(max_distance_to_outline(&input, &outline));
+        assert!(loose > 10_000.0, "{loose}");
+        let (out, how) = keep(&ring(&ps), "/coordinates/0", vec![0], Some(1000.0)).unwrap();
+        assert_eq!(how, Kept::Triangle);
+        assert_eq!(out.points.len(), 5, "the fourth corner added");
+        assert_eq!(out.points[0], out.points[4]);
+        let d = rad_to_m(max_distance_to_outline(&input, &out.points));
+        assert!(d <= 1000.0, "{d}");
+        assert_eq!(out.report.fields["tolerance_met"], json!(true));
+        // The same in shared mode's lon/lat form.
+        let (ll, _) = kept_lonlat(&input, Some(crate::earth::lonlat::m_to_rad(1000.0)), 7);
+        assert_eq!(ll.len(), 5);
     }
 
     #[test]

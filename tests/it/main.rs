@@ -15,6 +15,7 @@ mod http;
 mod http_openapi;
 mod http_port;
 mod paper_reproduction;
+mod seam;
 mod small_rings;
 mod sphere_properties;
 mod time;

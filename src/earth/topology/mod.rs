@@ -23,7 +23,7 @@
 //! 4. A polygon whose rings cross the antimeridian is cut there into polygons within
 //!    [-180, 180] (`properties.fit.antimeridian_split: true`) without moving any vertex: each
 //!    crossing gets a vertex on the fitted arc's great-circle step, and a ring winding around
-//!    a pole is closed along the pole (`split_at_antimeridian`). Vertices away from the
+//!    a pole is closed along the pole (`antimeridian::split_polygon`, as per-feature fitting does). Vertices away from the
 //!    antimeridian keep their bits, so the shared borders of such a polygon are still
 //!    identical to its neighbours'. Coordinates exactly at ±180 degrees take the sign of the
 //!    ring around them (the same point either way).
@@ -38,6 +38,7 @@ pub mod arcs;
 /// tolerance before the crossing is reported as left (`crossings_left`).
 pub const TIGHTEN_ROUNDS: usize = 3;
 
+use super::antimeridian;
 use super::curve::{
     compression_ratio, prepare_line, round_spline, round_up_m, rounding_bound_rad, sampling_start,
     sphere_error, tolerance_target_rad,
@@ -332,10 +333,36 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
                 .map(|(i, p)| (format!("{cptr}/{i}"), p))
                 .collect()
         };
-        for (pi, (pptr, poly)) in polygons.iter().enumerate() {
+        // Polygons cut at ±180 are rejoined into rings on the sphere, as per-feature fitting
+        // does (antimeridian::rejoin).
+        let rejoined = antimeridian::rejoin::rejoin_cut_polygons(&polygons);
+        let kind = match &rejoined {
+            Some(p) if kind == "Polygon" && p.len() == 1 => "Polygon",
+            Some(_) => "MultiPolygon",
+            None => kind,
+        };
+        let mut ring_sets: Vec<Vec<(String, &Value)>> = Vec::with_capacity(polygons.len());
+        match &rejoined {
+            Some(polys) => {
+                for poly in polys {
+                    ring_sets.push(poly.iter().map(|(p, r)| (p.clone(), r)).collect());
+                }
+            }
+            None => {
+                for (pptr, poly) in &polygons {
+                    ring_sets.push(
+                        array_of(poly, pptr, "rings")?
+                            .iter()
+                            .enumerate()
+                            .map(|(ri, ring)| (format!("{pptr}/{ri}"), ring))
+                            .collect(),
+                    );
+                }
+            }
+        }
+        for (pi, poly_rings) in ring_sets.into_iter().enumerate() {
             let mut poly_ll = Vec::new();
-            for (ri, ring) in array_of(poly, pptr, "rings")?.iter().enumerate() {
-                let rptr = format!("{pptr}/{ri}");
+            for (ri, (rptr, ring)) in poly_rings.into_iter().enumerate() {
                 // A ring of one distinct position bounds no area: read here, kept as it came below.
                 let line = match prepare_line(ring, &rptr, true, None) {
                     Ok((line, _, _)) => line,
@@ -529,7 +556,8 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
                         ll_rings.push(ring);
                     }
                     None => {
-                        let (ring, how) = small_rings::kept_lonlat(&rings[*ri].points, precision);
+                        let (ring, how) =
+                            small_rings::kept_lonlat(&rings[*ri].points, Some(tol_rad), precision);
                         parts.push(json!({"path": path, "arcs": [], "small_ring": how.name()}));
                         kept.push(sources[*ri].pointer.clone());
                         ll_rings.push(ring);
@@ -542,8 +570,20 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
                 ring_uses_out.push(poly.iter().map(|(_, u)| u.to_vec()).collect::<Vec<_>>());
             } else {
                 split_any = true;
-                let split = split_at_antimeridian(&ll_rings, precision);
+                let rings3: Vec<Vec<[f64; 3]>> = ll_rings
+                    .iter()
+                    .map(|r| r.iter().map(|p| [p[0], p[1], 0.0]).collect())
+                    .collect();
+                let split = antimeridian::split_polygon(&rings3, &|x| round_to(x, precision));
                 for rings_ll in split {
+                    let rings_ll: Vec<Vec<[f64; 2]>> = rings_ll
+                        .iter()
+                        .map(|r| {
+                            r.iter()
+                                .map(|p| [p[0], round_to(p[1], precision)])
+                                .collect()
+                        })
+                        .collect();
                     out_polys.push(json!(rings_ll));
                     out_ll.push(rings_ll);
                 }
@@ -811,143 +851,6 @@ fn ring_lonlat(uses: &[ArcUse], arcs: &[FittedArc]) -> Vec<[f64; 2]> {
         out.push(first);
     }
     out
-}
-
-/// A polygon (rings of rounded lon/lat, exterior first) that crosses the antimeridian, cut
-/// there into polygons within [-180, 180] without moving any vertex: each step across ±180
-/// gets a vertex where its great circle meets the antimeridian; longitudes are unwrapped by
-/// whole turns (vertices in [-180, 180] keep their bits); a ring winding around a pole is
-/// closed along that pole (the pole on the side of its mean latitude); each ring is clipped to
-/// the strips [-540, -180], [-180, 180], [180, 540] (Sutherland–Hodgman: the cut lines pass
-/// through the inserted vertices, so nothing is interpolated off the curve), shifted back and
-/// rounded. Several pieces of one ring in one strip stay one ring, joined along the cut line.
-fn split_at_antimeridian(rings: &[Vec<[f64; 2]>], precision: u32) -> Vec<Vec<Vec<[f64; 2]>>> {
-    use super::lonlat::lonlat_to_unit;
-    // Each step across ±180 gets the crossing twice, once at each side's longitude.
-    let with_crossings = |ring: &Vec<[f64; 2]>| -> (Vec<[f64; 2]>, i32, Option<usize>) {
-        let mut out: Vec<[f64; 2]> = Vec::with_capacity(ring.len() + 8);
-        let (mut winding, mut first_after) = (0i32, None);
-        for (i, p) in ring.iter().enumerate() {
-            if i > 0 {
-                let q = ring[i - 1];
-                let d = p[0] - q[0];
-                if d.abs() > 180.0 {
-                    // The crossing on the great circle q-p: the point with y = 0 (x < 0).
-                    let (a, b) = (lonlat_to_unit(q[0], q[1]), lonlat_to_unit(p[0], p[1]));
-                    let (wa, wb) = (b[1].abs(), a[1].abs());
-                    let z = wa * a[2] + wb * b[2];
-                    let x = wa * a[0] + wb * b[0];
-                    let lat = round_to(z.atan2(-x).to_degrees(), precision);
-                    let side = if q[0] > 0.0 { 180.0 } else { -180.0 };
-                    out.push([side, lat]);
-                    out.push([-side, lat]);
-                    first_after.get_or_insert(out.len() - 1);
-                    winding += if d < 0.0 { 1 } else { -1 };
-                }
-            }
-            out.push(*p);
-        }
-        (out, winding, first_after)
-    };
-    let unwrap = |ring: &Vec<[f64; 2]>| -> Vec<[f64; 2]> {
-        let (mut ring, winding, first_after) = with_crossings(ring);
-        if let (true, Some(k)) = (winding != 0, first_after) {
-            // Winding around a pole: start just after a crossing and end just before it, so
-            // the ring spans exactly [-180, 180] and closes along the antimeridian and the pole.
-            ring.pop();
-            ring.rotate_left(k);
-        }
-        let mut out: Vec<[f64; 2]> = Vec::with_capacity(ring.len() + 3);
-        let mut turn = 0.0f64;
-        for (i, p) in ring.iter().enumerate() {
-            if i > 0 {
-                let d = p[0] - ring[i - 1][0];
-                if d.abs() > 180.0 {
-                    turn += if d < 0.0 { 1.0 } else { -1.0 };
-                }
-            }
-            out.push([p[0] + 360.0 * turn, p[1]]);
-        }
-        out
-    };
-    let mut unwrapped: Vec<Vec<[f64; 2]>> = rings.iter().map(unwrap).collect();
-    for ring in unwrapped.iter_mut() {
-        let (first, last) = (ring[0], ring[ring.len() - 1]);
-        if (last[0] - first[0]).abs() > 180.0 {
-            let mean_lat = ring.iter().map(|p| p[1]).sum::<f64>() / ring.len() as f64;
-            let pole = if mean_lat >= 0.0 { 90.0 } else { -90.0 };
-            ring.push([last[0], pole]);
-            ring.push([first[0], pole]);
-            ring.push(first);
-        }
-    }
-    // Holes next to the exterior.
-    let (lo, hi) = unwrapped[0]
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p[0]), hi.max(p[0]))
-        });
-    let centre = 0.5 * (lo + hi);
-    for ring in unwrapped.iter_mut().skip(1) {
-        let mean = ring.iter().map(|p| p[0]).sum::<f64>() / ring.len() as f64;
-        let shift = 360.0 * ((centre - mean) / 360.0).round();
-        if shift != 0.0 {
-            ring.iter_mut().for_each(|p| p[0] += shift);
-        }
-    }
-    let clip = |ring: &[[f64; 2]], x0: f64, keep_above: bool| -> Vec<[f64; 2]> {
-        let inside = |p: &[f64; 2]| if keep_above { p[0] >= x0 } else { p[0] <= x0 };
-        let mut out = Vec::with_capacity(ring.len());
-        let n = ring.len();
-        for i in 0..n.saturating_sub(1) {
-            let (a, b) = (ring[i], ring[i + 1]);
-            if inside(&a) {
-                out.push(a);
-            }
-            if inside(&a) != inside(&b) && a[0] != x0 && b[0] != x0 {
-                let t = (x0 - a[0]) / (b[0] - a[0]);
-                out.push([x0, a[1] + t * (b[1] - a[1])]);
-            }
-        }
-        if let Some(&f) = out.first() {
-            if out.last() != Some(&f) {
-                out.push(f);
-            }
-        }
-        out
-    };
-    let mut pieces = Vec::new();
-    for k in [-1.0f64, 0.0, 1.0] {
-        let (x_lo, x_hi) = (-180.0 + 360.0 * k, 180.0 + 360.0 * k);
-        let mut poly = Vec::new();
-        for (r, ring) in unwrapped.iter().enumerate() {
-            let c = clip(&clip(ring, x_lo, true), x_hi, false);
-            let c: Vec<[f64; 2]> = c
-                .iter()
-                .map(|p| {
-                    let lon = if k == 0.0 {
-                        p[0]
-                    } else {
-                        round_to(p[0] - 360.0 * k, precision)
-                    };
-                    [lon.clamp(-180.0, 180.0), p[1]]
-                })
-                .collect();
-            let mut distinct = c.clone();
-            distinct.dedup();
-            if distinct.len() < 4 {
-                if r == 0 {
-                    break;
-                }
-                continue;
-            }
-            poly.push(c);
-        }
-        if !poly.is_empty() {
-            pieces.push(poly);
-        }
-    }
-    pieces
 }
 
 /// No step of the ring spans more than 180 degrees of longitude: it does not cross the

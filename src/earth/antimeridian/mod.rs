@@ -10,19 +10,23 @@
 //!   segment passing a pole on the prime-meridian side, whose longitudes are more than 180
 //!   degrees apart, gets its lon = 0 crossing inserted. So no output segment spans more than 180
 //!   degrees of longitude.
-//! * [`split_polygon`]: rings are unwrapped to continuous longitudes; a polygon that leaves
-//!   [-180, 180] is clipped into the strips [-540, -180], [-180, 180] and [180, 540], shifted
-//!   back, and returned as several polygons. A ring that winds once around a pole is closed
-//!   along that pole (the pole on the side of the ring's mean latitude) before clipping.
-//!   Clipping uses `geo`'s boolean operations, whose integer grid snaps the vertices of a split
-//!   polygon by at most (polygon width in degrees) / 2^29 degrees (under 5 cm for any polygon).
+//! * [`split_polygon`] ([`split`]): polygons cut at ±180 where their great-circle edges
+//!   cross it and rings around a pole closed along it, without moving or dropping a vertex;
+//!   one splitter for per-feature and shared fitting.
+//! * [`rejoin::rejoin_cut_polygons`]: input already cut that way (parts touching ±180, polar
+//!   caps closed along the meridian and the pole) joined back into rings on the sphere before
+//!   fitting, so the cut is never fitted as if it were outline.
 //!
 //! Positions are `[lon_deg, lat_deg, alt]`; the altitude is interpolated at new vertices and
 //! ignored by callers that have none.
 
+pub mod rejoin;
+pub mod split;
+
+pub use split::split_polygon;
+
 use super::lonlat::unit_to_lonlat;
 use crate::sphere::geometry::point::angle_between;
-use geo::{BooleanOps, Coord, LineString, MultiPolygon, Polygon, Rect};
 
 /// A position `[lon_deg, lat_deg, altitude]` (the altitude is meaningless when the data have
 /// none).
@@ -135,164 +139,6 @@ pub fn cut_line(points: &[[f64; 3]], alts: &[f64]) -> Vec<Vec<Position>> {
     parts
 }
 
-/// A closed ring of unit vectors (first = last) with an altitude per vertex.
-#[derive(Clone, Debug)]
-pub struct SphereRing {
-    /// The vertices as unit vectors.
-    pub points: Vec<[f64; 3]>,
-    /// The altitude of each vertex (0 where the input had none).
-    pub alts: Vec<f64>,
-}
-
-/// Longitudes of a ring made continuous (each step taken the short way round).
-fn unwrap_ring(ring: &SphereRing) -> Vec<Position> {
-    let mut out: Vec<Position> = Vec::with_capacity(ring.points.len());
-    for (p, &alt) in ring.points.iter().zip(&ring.alts) {
-        let (lon, lat) = unit_to_lonlat(p);
-        let lon = match out.last() {
-            None => lon,
-            Some(prev) => {
-                let mut d = lon - prev[0];
-                d -= 360.0 * (d / 360.0).round();
-                prev[0] + d
-            }
-        };
-        out.push([lon, lat, alt]);
-    }
-    out
-}
-
-/// Converts a polygon (exterior ring first, then holes) to lon/lat polygons split at the
-/// antimeridian: one polygon when it does not leave [-180, 180], several otherwise.
-///
-/// # Errors
-/// When the boolean operation that splits the polygon fails (it panicked on degenerate input
-/// in some versions of the `geo` stack); the message says so.
-pub fn split_polygon(rings: &[SphereRing]) -> Result<Vec<Vec<Vec<Position>>>, String> {
-    if rings.is_empty() {
-        return Ok(Vec::new());
-    }
-    let mut unwrapped: Vec<Vec<Position>> = rings.iter().map(unwrap_ring).collect();
-    // Close a ring that winds around a pole along that pole.
-    for ring in unwrapped.iter_mut() {
-        let (first, last) = (ring[0], ring[ring.len() - 1]);
-        let winding = last[0] - first[0];
-        if winding.abs() > 180.0 {
-            let mean_lat = ring.iter().map(|p| p[1]).sum::<f64>() / ring.len() as f64;
-            let pole = if mean_lat >= 0.0 { 90.0 } else { -90.0 };
-            ring.push([last[0], pole, last[2]]);
-            ring.push([first[0], pole, first[2]]);
-            ring.push(first);
-        }
-    }
-    // Put holes next to the exterior (a hole may have been unwrapped 360 degrees away).
-    let centre = {
-        let ext = &unwrapped[0];
-        let (lo, hi) = ext
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(p[0]), hi.max(p[0]))
-            });
-        0.5 * (lo + hi)
-    };
-    for ring in unwrapped.iter_mut().skip(1) {
-        let mean = ring.iter().map(|p| p[0]).sum::<f64>() / ring.len() as f64;
-        let shift = 360.0 * ((centre - mean) / 360.0).round();
-        if shift != 0.0 {
-            for p in ring.iter_mut() {
-                p[0] += shift;
-            }
-        }
-    }
-    // Shift everything so the exterior starts in [-180, 180].
-    let start = unwrapped[0][0][0];
-    let shift = 360.0 * (-start / 360.0).round();
-    if shift != 0.0 {
-        for p in unwrapped.iter_mut().flatten() {
-            p[0] += shift;
-        }
-    }
-    let inside = unwrapped
-        .iter()
-        .flatten()
-        .all(|p| (-180.0..=180.0).contains(&p[0]));
-    if inside {
-        return Ok(vec![unwrapped]);
-    }
-    std::panic::catch_unwind(|| clip_into_strips(&unwrapped)).map_err(|_| {
-        "this ring crosses the antimeridian and could not be split there (degenerate ring)"
-            .to_string()
-    })
-}
-
-fn clip_into_strips(rings: &[Vec<Position>]) -> Vec<Vec<Vec<Position>>> {
-    let to_ls =
-        |r: &Vec<Position>| LineString::new(r.iter().map(|p| Coord { x: p[0], y: p[1] }).collect());
-    let polygon = Polygon::new(to_ls(&rings[0]), rings[1..].iter().map(to_ls).collect());
-    // Altitude lookup: every input vertex, sorted by longitude.
-    let mut vertices: Vec<Position> = rings.iter().flatten().copied().collect();
-    vertices.sort_by(|a, b| a[0].total_cmp(&b[0]));
-    let (lo, hi) = vertices
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p[0]), hi.max(p[0]))
-        });
-    let mut out = Vec::new();
-    for k in [-1.0f64, 0.0, 1.0] {
-        // Strip [-180, 180] + 360 k, trimmed to the polygon's extent (a smaller clip box keeps
-        // the boolean operation's integer grid fine).
-        let (a, b) = ((-180.0 + 360.0 * k).max(lo), (180.0 + 360.0 * k).min(hi));
-        if a >= b {
-            continue;
-        }
-        let rect = Rect::new(Coord { x: a, y: -90.0 }, Coord { x: b, y: 90.0 }).to_polygon();
-        let piece: MultiPolygon<f64> = polygon.intersection(&rect);
-        for poly in piece.0 {
-            let convert = |ls: &LineString<f64>| -> Vec<Position> {
-                ls.0.iter()
-                    .map(|c| {
-                        let alt = nearest_alt(&vertices, c.x, c.y);
-                        let lon = (c.x - 360.0 * k).clamp(-180.0, 180.0);
-                        [lon, c.y.clamp(-90.0, 90.0), alt]
-                    })
-                    .collect()
-            };
-            let mut rings_out = vec![convert(poly.exterior())];
-            rings_out.extend(poly.interiors().iter().map(convert));
-            if rings_out[0].len() >= 4 {
-                out.push(rings_out);
-            }
-        }
-    }
-    out
-}
-
-/// Altitude of the input vertex nearest to `(x, y)` (planar distance in unwrapped degrees).
-fn nearest_alt(sorted: &[Position], x: f64, y: f64) -> f64 {
-    let i = sorted.partition_point(|p| p[0] < x);
-    let mut best = (f64::INFINITY, 0.0);
-    let dist = |p: &Position| (p[0] - x).powi(2) + (p[1] - y).powi(2);
-    for p in sorted[i..].iter() {
-        if (p[0] - x).powi(2) > best.0 {
-            break;
-        }
-        let d = dist(p);
-        if d < best.0 {
-            best = (d, p[2]);
-        }
-    }
-    for p in sorted[..i].iter().rev() {
-        if (p[0] - x).powi(2) > best.0 {
-            break;
-        }
-        let d = dist(p);
-        if d < best.0 {
-            best = (d, p[2]);
-        }
-    }
-    best.1
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -377,62 +223,6 @@ mod tests {
         let parts = cut_line(&pts, &[100.0, 200.0]);
         assert!((parts[0][1][2] - 150.0).abs() < 1e-6);
         assert!((parts[1][0][2] - 150.0).abs() < 1e-6);
-    }
-
-    fn ring(lonlats: &[(f64, f64)]) -> SphereRing {
-        let points: Vec<[f64; 3]> = lonlats.iter().map(|&(a, b)| lonlat_to_unit(a, b)).collect();
-        let alts = vec![7.0; points.len()];
-        SphereRing { points, alts }
-    }
-
-    #[test]
-    fn polygon_inside_the_range_is_unchanged() {
-        let r = ring(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 0.0)]);
-        let polys = split_polygon(&[r]).unwrap();
-        assert_eq!(polys.len(), 1);
-        assert_eq!(polys[0][0].len(), 4);
-        assert!((polys[0][0][1][0] - 10.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn polygon_across_the_antimeridian_is_split_in_two() {
-        let r = ring(&[
-            (170.0, -10.0),
-            (-170.0, -10.0),
-            (-170.0, 10.0),
-            (170.0, 10.0),
-            (170.0, -10.0),
-        ]);
-        let polys = split_polygon(&[r]).unwrap();
-        assert_eq!(polys.len(), 2, "{polys:?}");
-        for p in &polys {
-            let lons: Vec<f64> = p[0].iter().map(|q| q[0]).collect();
-            let all_east = lons.iter().all(|&l| l >= 170.0 - 1e-6);
-            let all_west = lons.iter().all(|&l| l <= -170.0 + 1e-6);
-            assert!(all_east || all_west, "{lons:?}");
-            assert!(p[0].iter().all(|q| q[2] == 7.0));
-        }
-    }
-
-    #[test]
-    fn ring_around_a_pole_is_closed_along_the_pole() {
-        let r = ring(&[
-            (0.0, 80.0),
-            (90.0, 80.0),
-            (180.0, 80.0),
-            (-90.0, 80.0),
-            (0.0, 80.0),
-        ]);
-        let polys = split_polygon(&[r]).unwrap();
-        assert!(!polys.is_empty());
-        let max_lat = polys
-            .iter()
-            .flat_map(|p| p[0].iter().map(|q| q[1]))
-            .fold(f64::MIN, f64::max);
-        assert_eq!(max_lat, 90.0);
-        for p in &polys {
-            assert!(p[0].iter().all(|q| (-180.0..=180.0).contains(&q[0])));
-        }
     }
 
     proptest! {

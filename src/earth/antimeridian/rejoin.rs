@@ -1,0 +1,327 @@
+//! Polygons that arrive cut at ±180, rejoined into rings on the sphere before fitting.
+//!
+//! Natural Earth, GDAL's RFC 7946 writer and geopandas write a polygon that crosses the
+//! antimeridian as parts on either side (Fiji, Chukotka), and a polygon around a pole as one
+//! ring with edges along the ±180 meridian and a closure along the pole (Antarctica). Fitted
+//! as they are, those edges are part of the outline: the curve runs up to the pole and back,
+//! and the parts are fitted (and judged) separately. On the sphere they are one ring.
+//!
+//! [`rejoin_cut_polygons`] removes the *cut edges* (an edge along one of the ±180 meridians,
+//! or one with an end at a pole and the other on the meridian or the pole), breaks the rings
+//! there into chains, and joins each chain's end to the chain that starts at the same point
+//! of the sphere (the same latitude at +180 or -180; any longitude at a pole). When every chain
+//! joins into a closed ring, those rings replace the input (exteriors and holes separately,
+//! each hole kept with the exterior its polygon became part of); otherwise the geometry is
+//! left as it came, so a polygon that merely touches ±180 is not changed. The rejoined rings
+//! are lists of the input's own positions (cloned, altitudes included): nothing is moved, and
+//! the output is cut again where the fitted curve crosses ±180 ([`super::split_polygon`]).
+
+use serde_json::Value;
+
+/// Two latitudes closer than this (degrees, about 1 cm) are the same point on the seam.
+const SAME_LAT_DEG: f64 = 1e-7;
+
+/// A position by (polygon, ring, index) in the input.
+type At = (usize, usize, usize);
+
+fn is_pole(lat: f64) -> bool {
+    lat.abs() == 90.0
+}
+
+fn on_seam(lon: f64) -> bool {
+    lon.abs() == 180.0
+}
+
+/// Whether the edge `a -> b` is an edge of the cut, not of the outline.
+fn cut_edge(a: [f64; 2], b: [f64; 2]) -> bool {
+    let seam_or_pole = |p: [f64; 2]| on_seam(p[0]) || is_pole(p[1]);
+    if !(seam_or_pole(a) && seam_or_pole(b)) {
+        return false;
+    }
+    (on_seam(a[0]) && a[0] == b[0]) || is_pole(a[1]) || is_pole(b[1])
+}
+
+/// Whether `a` and `b` are the same point of the sphere on the seam or at a pole.
+fn same_point(a: [f64; 2], b: [f64; 2]) -> bool {
+    if (a[1] - b[1]).abs() > SAME_LAT_DEG {
+        return false;
+    }
+    is_pole(a[1]) || a[0] == b[0] || (on_seam(a[0]) && on_seam(b[0]))
+}
+
+/// The lon/lat of a position value, if it is one.
+fn lonlat(p: &Value) -> Option<[f64; 2]> {
+    let a = p.as_array()?;
+    let (lon, lat) = (a.first()?.as_f64()?, a.get(1)?.as_f64()?);
+    ((-180.0..=180.0).contains(&lon) && (-90.0..=90.0).contains(&lat)).then_some([lon, lat])
+}
+
+/// Rings of one role (exteriors or holes) rejoined: each output ring is a closed list of
+/// positions, with the polygon its first chain came from. `None` when a chain has no partner.
+fn join_rings(rings: &[(usize, usize, &[[f64; 2]])]) -> Option<Vec<(usize, Vec<At>)>> {
+    let mut closed: Vec<(usize, Vec<At>)> = Vec::new();
+    let mut chains: Vec<(usize, Vec<At>)> = Vec::new();
+    for &(p, r, pts) in rings {
+        // Without the closing position.
+        let n = if pts.len() > 1 && pts[0] == pts[pts.len() - 1] {
+            pts.len() - 1
+        } else {
+            pts.len()
+        };
+        let cut: Vec<bool> = (0..n).map(|i| cut_edge(pts[i], pts[(i + 1) % n])).collect();
+        if !cut.iter().any(|&c| c) {
+            let mut ring: Vec<At> = (0..n).map(|i| (p, r, i)).collect();
+            ring.push((p, r, 0));
+            closed.push((p, ring));
+            continue;
+        }
+        // Chains of outline edges between cut edges; a lone vertex between two cut edges
+        // (a pole corner) is part of the cut.
+        let s = (0..n).find(|&i| cut[(i + n - 1) % n])?;
+        let mut current: Vec<At> = vec![(p, r, s)];
+        for j in 0..n {
+            let i = (s + j) % n;
+            if cut[i] {
+                if current.len() >= 2 {
+                    chains.push((p, std::mem::take(&mut current)));
+                }
+                current = vec![(p, r, (i + 1) % n)];
+            } else {
+                current.push((p, r, (i + 1) % n));
+            }
+        }
+        if current.len() >= 2 {
+            chains.push((p, current));
+        }
+    }
+    let point = |at: &At| -> [f64; 2] {
+        let &(p, r, i) = at;
+        rings
+            .iter()
+            .find(|(q, s, _)| *q == p && *s == r)
+            .map(|(_, _, pts)| pts[i])
+            .expect("a position of these rings")
+    };
+    let mut used = vec![false; chains.len()];
+    for c0 in 0..chains.len() {
+        if used[c0] {
+            continue;
+        }
+        used[c0] = true;
+        let mut ring = chains[c0].1.clone();
+        let mut cur = c0;
+        loop {
+            let end = point(chains[cur].1.last().expect("a chain has two positions"));
+            if same_point(end, point(&chains[c0].1[0])) {
+                // The last position is the first one's twin across the seam: close on the first.
+                ring.pop();
+                ring.push(chains[c0].1[0]);
+                break;
+            }
+            let next =
+                (0..chains.len()).find(|&c| !used[c] && same_point(end, point(&chains[c].1[0])))?;
+            used[next] = true;
+            ring.pop();
+            ring.extend_from_slice(&chains[next].1);
+            cur = next;
+        }
+        if ring.len() >= 3 {
+            closed.push((chains[c0].0, ring));
+        }
+    }
+    Some(closed)
+}
+
+/// Rejoins a polygon set cut at ±180 (see the module docs). `polygons` are the (pointer,
+/// value) of each polygon's rings array; the result is the new polygons, each a list of
+/// (pointer of the input ring it starts from, ring value). `None` when nothing is cut, a
+/// chain has no partner, or a position is not a lon/lat pair (the usual checks then report
+/// it where it is).
+pub fn rejoin_cut_polygons(polygons: &[(String, &Value)]) -> Option<Vec<Vec<(String, Value)>>> {
+    let mut parsed: Vec<Vec<Vec<[f64; 2]>>> = Vec::with_capacity(polygons.len());
+    let mut any_cut = false;
+    for (_, poly) in polygons {
+        let mut rings = Vec::new();
+        for ring in poly.as_array()? {
+            let pts: Vec<[f64; 2]> = ring.as_array()?.iter().map(lonlat).collect::<Option<_>>()?;
+            if pts.len() < 2 {
+                return None;
+            }
+            any_cut |= pts.windows(2).any(|w| cut_edge(w[0], w[1]));
+            rings.push(pts);
+        }
+        if rings.is_empty() {
+            return None;
+        }
+        parsed.push(rings);
+    }
+    if !any_cut {
+        return None;
+    }
+    let exteriors: Vec<(usize, usize, &[[f64; 2]])> = parsed
+        .iter()
+        .enumerate()
+        .map(|(p, rings)| (p, 0, rings[0].as_slice()))
+        .collect();
+    let holes: Vec<(usize, usize, &[[f64; 2]])> = parsed
+        .iter()
+        .enumerate()
+        .flat_map(|(p, rings)| {
+            rings
+                .iter()
+                .enumerate()
+                .skip(1)
+                .map(move |(r, pts)| (p, r, pts.as_slice()))
+        })
+        .collect();
+    let joined_ext = join_rings(&exteriors)?;
+    let joined_holes = join_rings(&holes)?;
+    // Which new polygon each input polygon's exterior went into.
+    let mut home = vec![usize::MAX; polygons.len()];
+    for (k, (_, ring)) in joined_ext.iter().enumerate() {
+        for &(p, _, _) in ring {
+            if home[p] == usize::MAX {
+                home[p] = k;
+            }
+        }
+    }
+    let value_of = |ring: &[At]| -> Value {
+        Value::Array(
+            ring.iter()
+                .map(|&(p, r, i)| polygons[p].1[r][i].clone())
+                .collect(),
+        )
+    };
+    let pointer_of = |at: &At| format!("{}/{}", polygons[at.0].0, at.1);
+    let mut out: Vec<Vec<(String, Value)>> = joined_ext
+        .iter()
+        .map(|(_, ring)| vec![(pointer_of(&ring[0]), value_of(ring))])
+        .collect();
+    for (p, ring) in &joined_holes {
+        let k = home[*p];
+        if k == usize::MAX {
+            return None;
+        }
+        out[k].push((pointer_of(&ring[0]), value_of(ring)));
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn run(coords: Value) -> Option<Vec<Vec<Value>>> {
+        let polys: Vec<(String, &Value)> = coords
+            .as_array()
+            .unwrap()
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (format!("/coordinates/{i}"), p))
+            .collect();
+        rejoin_cut_polygons(&polys).map(|v| {
+            v.into_iter()
+                .map(|p| p.into_iter().map(|(_, r)| r).collect())
+                .collect()
+        })
+    }
+
+    #[test]
+    fn a_polar_cap_cut_at_the_seam_becomes_one_ring_around_the_pole() {
+        // Antarctica as Natural Earth writes it: coast eastward, down 180, along the pole, up -180.
+        let coords = json!([[[
+            [-180.0, -84.0],
+            [-90.0, -80.0],
+            [0.0, -70.0],
+            [90.0, -68.0],
+            [180.0, -84.0],
+            [180.0, -90.0],
+            [-180.0, -90.0],
+            [-180.0, -84.0]
+        ]]]);
+        let out = run(coords).unwrap();
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].len(), 1);
+        let ring = out[0][0].as_array().unwrap();
+        // The coast only, closed: no vertex at the pole, one at the seam.
+        assert_eq!(ring.len(), 5, "{ring:?}");
+        assert!(ring.iter().all(|p| p[1].as_f64().unwrap() > -89.0));
+        assert_eq!(ring.first(), ring.last());
+    }
+
+    #[test]
+    fn parts_on_either_side_of_the_seam_become_one_ring() {
+        // Fiji-like: a west part ending at +180 and an east part starting at -180.
+        let coords = json!([
+            [[
+                [178.0, -17.0],
+                [180.0, -17.0],
+                [180.0, -16.0],
+                [178.0, -16.0],
+                [178.0, -17.0]
+            ]],
+            [[
+                [-180.0, -16.0],
+                [-180.0, -17.0],
+                [-179.0, -17.0],
+                [-179.0, -16.0],
+                [-180.0, -16.0]
+            ]],
+            [[[10.0, 10.0], [11.0, 10.0], [11.0, 11.0], [10.0, 10.0]]]
+        ]);
+        let out = run(coords).unwrap();
+        assert_eq!(out.len(), 2, "{out:?}");
+        let joined = out
+            .iter()
+            .find(|p| p[0].as_array().unwrap().len() > 4)
+            .unwrap();
+        let ring = joined[0].as_array().unwrap();
+        // 3 + 3 outline positions and the two seam crossings once each, closed.
+        let lons: Vec<f64> = ring.iter().map(|p| p[0].as_f64().unwrap()).collect();
+        assert_eq!(ring.first(), ring.last());
+        assert!(lons.contains(&-179.0) && lons.contains(&178.0), "{lons:?}");
+        assert_eq!(ring.len(), 7, "{ring:?}");
+    }
+
+    #[test]
+    fn a_polygon_touching_the_seam_without_a_partner_is_left_alone() {
+        let coords = json!([[[
+            [170.0, 0.0],
+            [180.0, 0.0],
+            [180.0, 10.0],
+            [170.0, 10.0],
+            [170.0, 0.0]
+        ]]]);
+        assert!(run(coords).is_none());
+        let plain = json!([[[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 0.0]]]]);
+        assert!(run(plain).is_none());
+    }
+
+    #[test]
+    fn altitudes_and_holes_come_along() {
+        let coords = json!([
+            [
+                [
+                    [170.0, -10.0, 5.0],
+                    [180.0, -10.0, 5.0],
+                    [180.0, 10.0, 5.0],
+                    [170.0, 10.0, 5.0],
+                    [170.0, -10.0, 5.0]
+                ],
+                [[172.0, -1.0], [172.0, 1.0], [173.0, 1.0], [172.0, -1.0]]
+            ],
+            [[
+                [-180.0, 10.0, 5.0],
+                [-180.0, -10.0, 5.0],
+                [-170.0, -10.0, 5.0],
+                [-170.0, 10.0, 5.0],
+                [-180.0, 10.0, 5.0]
+            ]]
+        ]);
+        let out = run(coords).unwrap();
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].len(), 2, "the hole stays with its exterior");
+        assert!(out[0][0].as_array().unwrap().iter().all(|p| p[2] == 5.0));
+    }
+}
