@@ -34,7 +34,7 @@ docker() {
 # Runs a README command (a string) with `docker` meaning podman, after checking that the README
 # holds it verbatim.
 readme() {
-  if ! grep -Fq -- "$1" README.md; then
+  if ! grep -Fq -- "$1" "$ROOT/README.md"; then
     echo "README.md does not show the command CI runs: $1"; exit 1
   fi
   echo "\$ $1"
