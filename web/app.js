@@ -120,6 +120,12 @@ function readInput(name, text, json) {
 // ---------- loading ----------
 
 async function loadBlob(name, blob) {
+  // A fit still under way is for the previous file: stop it, so its answer cannot land on this one.
+  state.fitGen++;
+  if (state.abort) state.abort.abort();
+  state.abort = null;
+  state.lastFit = null;
+  el.cancel.hidden = true;
   clearProblem();
   state.result = null;
   state.problem = null;
@@ -145,6 +151,8 @@ async function loadBlob(name, blob) {
   const n = state.input.positions;
   el.info.textContent = `${name}: ${fmtBytes(blob.size)}, ${state.input.features.length} feature${state.input.features.length === 1 ? '' : 's'}, ${fmtInt(n)} line and ring positions`;
   if (lim && n > lim.max_points) {
+    // Kept so the map shows it, but never sent: an option changed later must not send it either.
+    state.input.refused = true;
     setStatus('refused', `“${name}” has ${fmtInt(n)} line and ring positions; this server fits at most ${fmtInt(lim.max_points)} per request (max_points; spherefit serve --max-points). Split the file first, or use the batch CLI (spherefit fit), which streams any size. Nothing was sent.`);
     fitView();
     return;
@@ -196,7 +204,7 @@ function updateModeControls() {
 /** Fits the input with the options shown, unless that exact fit is already shown or under way
  * (`force`: the form was submitted). */
 async function fit(force = false) {
-  if (!state.input) return;
+  if (!state.input || state.input.refused) return;
   const url = `/v1/fit?${query()}`;
   if (!force && state.lastFit && state.lastFit.url === url && state.lastFit.input === state.input) return;
   state.lastFit = { url, input: state.input };

@@ -287,6 +287,11 @@ test('files over the server’s limits get a message and are not sent', async ()
   await page.waitForFunction(() => document.getElementById('status').innerText.includes('25,000'));
   assert.equal(await page.getAttribute('#status', 'data-state'), 'refused');
   assert.match(await page.innerText('#status'), /at most 20,000.*max_points/);
+  // Changing an option afterwards must not send the refused file either.
+  await page.check('#mode-default');
+  await page.check('#mode-tolerance');
+  await page.waitForTimeout(300);
+  assert.equal(await page.getAttribute('#status', 'data-state'), 'refused');
   page.off('request', count);
   assert.equal(fits, 0, 'a refused file was sent');
   await shot('05-too-large.png');
