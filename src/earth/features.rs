@@ -694,6 +694,7 @@ fn curves_of_geometry(
         }),
         _ => None,
     };
+    let rejoined = rejoined.transpose().map_err(no_area_on_the_sphere)?;
     let kind = match &rejoined {
         Some(polys) if kind == "Polygon" && polys.len() == 1 => "Polygon",
         Some(_) => "MultiPolygon",
@@ -729,6 +730,20 @@ fn curves_of_geometry(
         }
     }
     Ok(Some((geometry_out, info, stats, extra)))
+}
+
+/// The error for a ring that [`rejoin_cut_polygons`] found to bound no area on the sphere.
+pub(super) fn no_area_on_the_sphere(pointer: String) -> EarthError {
+    EarthError::new(
+        pointer,
+        Problem::InvalidRing(
+            "on the sphere this ring has fewer than 3 distinct positions and bounds no area: \
+             its edges along -180 and 180 (one meridian) and the poles meet themselves. A \
+             latitude band or the whole world drawn in the lon/lat plane needs vertices along \
+             its parallels"
+                .into(),
+        ),
+    )
 }
 
 /// Checks a `bbox` member, if any: an array of 2n numbers, n >= 2 (RFC 7946 §5).
@@ -789,7 +804,8 @@ fn check_other_geometry(
                 let c = m
                     .get("coordinates")
                     .ok_or_else(|| invalid(&iptr, format!("a {k} needs \"coordinates\"")))?;
-                check_nested_positions(c, &format!("{iptr}/coordinates"), depth_of)?;
+                let rings = k.ends_with("Polygon");
+                check_nested_positions(c, &format!("{iptr}/coordinates"), depth_of, rings)?;
             } else {
                 return Err(invalid(
                     format!("{iptr}/type"),
@@ -848,16 +864,52 @@ fn check_position(p: &Value, ptr: &str) -> Result<(), EarthError> {
     Ok(())
 }
 
-/// Checks arrays of positions nested `depth` deep (1: a line's positions).
-fn check_nested_positions(v: &Value, ptr: &str, depth: usize) -> Result<(), EarthError> {
+/// Checks arrays of positions nested `depth` deep (1: a line's positions, or a ring's when
+/// `rings`): every position, at least 2 positions in a line, and rings closed with at least 4
+/// (RFC 7946 §3.1.4, §3.1.6), as for the lines and rings that are fitted.
+fn check_nested_positions(
+    v: &Value,
+    ptr: &str,
+    depth: usize,
+    rings: bool,
+) -> Result<(), EarthError> {
     if depth == 1 {
-        for (i, p) in array_at(v, ptr, "positions")?.iter().enumerate() {
+        let positions = array_at(v, ptr, "positions")?;
+        for (i, p) in positions.iter().enumerate() {
             check_position(p, &format!("{ptr}/{i}"))?;
+        }
+        let n = positions.len();
+        let lonlat = |p: &Value| [p[0].as_f64(), p[1].as_f64()];
+        if rings && n < 4 {
+            return Err(EarthError::new(
+                ptr,
+                Problem::InvalidRing(format!(
+                    "a Polygon ring needs at least 4 positions (the last repeating the first), got {n}"
+                )),
+            ));
+        }
+        if rings && lonlat(&positions[0]) != lonlat(&positions[n - 1]) {
+            return Err(EarthError::new(
+                format!("{ptr}/{}", n - 1),
+                Problem::InvalidRing(
+                    "a Polygon ring must end where it starts: the last position differs from the first"
+                        .into(),
+                ),
+            ));
+        }
+        if !rings && n < 2 {
+            return Err(EarthError::new(
+                ptr,
+                Problem::TooFewPoints {
+                    distinct: n,
+                    need: 2,
+                },
+            ));
         }
         return Ok(());
     }
     for (i, x) in array_at(v, ptr, "arrays of positions")?.iter().enumerate() {
-        check_nested_positions(x, &format!("{ptr}/{i}"), depth - 1)?;
+        check_nested_positions(x, &format!("{ptr}/{i}"), depth - 1, rings)?;
     }
     Ok(())
 }

