@@ -7,7 +7,8 @@
 //! puts the results back together in order, with the collection's foreign members.
 
 use super::antimeridian::rejoin::rejoin_cut_polygons;
-use super::antimeridian::{cut_line, split_polygon};
+use super::antimeridian::{cut_line, split_polygon_around};
+use super::area;
 use super::curve::{
     compression_ratio, evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line,
     json_kind, output_position, output_positions,
@@ -703,7 +704,7 @@ fn curves_of_geometry(
     if let Some(polys) = &rejoined {
         jobs.clear();
         for (i, poly) in polys.iter().enumerate() {
-            for (r, (pointer, ring)) in poly.iter().enumerate() {
+            for (r, (pointer, ring)) in poly.rings.iter().enumerate() {
                 let path = if kind == "Polygon" {
                     vec![r]
                 } else {
@@ -720,7 +721,43 @@ fn curves_of_geometry(
     if kind.ends_with("Polygon") {
         tighten_crossing_rings(&jobs, &mut outputs, job)?;
     }
-    let (mut geometry_out, info, stats, extra) = assemble(kind, outputs, job)?;
+    // Spherical area before and after, as shared fitting reports it: the input rings as read
+    // (rejoined where they came cut) against the fitted rings before they are cut at ±180.
+    let areas = kind.ends_with("Polygon").then(|| {
+        let by_polygon = |path: &[usize]| if kind == "Polygon" { 0 } else { path[0] };
+        let mut before: Vec<(usize, Vec<Vec<[f64; 3]>>)> = Vec::new();
+        for j in &jobs {
+            let key = by_polygon(&j.path);
+            match before.last_mut() {
+                Some((k, rings)) if *k == key => rings.push(ring_units(j.value)),
+                _ => before.push((key, vec![ring_units(j.value)])),
+            }
+        }
+        let mut after: Vec<(usize, Vec<&[[f64; 3]]>)> = Vec::new();
+        for c in &outputs {
+            let key = by_polygon(&c.report.path);
+            match after.last_mut() {
+                Some((k, rings)) if *k == key => rings.push(&c.points),
+                _ => after.push((key, vec![&c.points[..]])),
+            }
+        }
+        let sum_before: f64 = before.iter().map(|(_, r)| area::polygon_area_m2(r)).sum();
+        let sum_after: f64 = after.iter().map(|(_, r)| area::polygon_area_m2(r)).sum();
+        (sum_after, area::area_change(sum_before, sum_after))
+    });
+    // The pole each rejoined polygon was closed along in the input, kept in the output.
+    let poles: Vec<Option<f64>> = rejoined.iter().flatten().map(|p| p.pole).collect();
+    let (mut geometry_out, mut info, stats, extra) = assemble(kind, outputs, &poles, job)?;
+    if let (Some((area_m2, change)), JsonOut::Object(m)) = (areas, &mut info) {
+        m.insert(
+            "area_m2".into(),
+            JsonOut::Value(json!(super::lonlat::round_to(area_m2, 0))),
+        );
+        m.insert(
+            "area_change".into(),
+            JsonOut::Value(json!(super::lonlat::round_to(change, 9))),
+        );
+    }
     // Foreign members of the geometry object come back with it (RFC 7946 §6.1).
     if let JsonOut::Object(m) = &mut geometry_out {
         for (k, v) in gmap {
@@ -950,7 +987,7 @@ fn curves_of_fit<'a>(
             return evaluate_at(&jobs, &iptr, at, job).map(Some);
         }
         let outputs = run_curves(&jobs, job)?;
-        return assemble("LineString", outputs, job).map(Some);
+        return assemble("LineString", outputs, &[], job).map(Some);
     }
     let Some(parts) = info.get("parts") else {
         return Err(invalid(
@@ -1014,7 +1051,7 @@ fn curves_of_fit<'a>(
         return evaluate_at(&jobs, &iptr, at, job).map(Some);
     }
     let outputs = run_curves(&jobs, job)?;
-    assemble(kind, outputs, job).map(Some)
+    assemble(kind, outputs, &[], job).map(Some)
 }
 
 /// Runs the curves of one geometry in parallel; the first error in order wins.
@@ -1243,7 +1280,14 @@ fn geometry(kind: &str, coordinates: JsonOut) -> JsonOut {
 }
 
 /// Builds the output geometry, the properties object and the stats from fitted curves.
-fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assembled, EarthError> {
+/// `poles[i]`: the pole polygon `i` is closed along if it goes round one (cut-form input,
+/// [`super::antimeridian::rejoin::RejoinedPolygon::pole`]); empty when none is known.
+fn assemble(
+    kind: &str,
+    outputs: Vec<CurveOutput>,
+    poles: &[Option<f64>],
+    job: &Job,
+) -> Result<Assembled, EarthError> {
     let precision = job.output.precision;
     // A curve whose knots or parameters under- or overflow samples to non-finite points; that
     // is the input's fault and is said so (never `null` coordinates or an empty geometry).
@@ -1328,7 +1372,7 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
                 }
             }
             let mut pieces = Vec::new();
-            for (_, rings) in &polygons {
+            for (key, rings) in &polygons {
                 let has_alt = rings.iter().all(|r| r.has_alt);
                 let lonlat_rings: Vec<Vec<[f64; 3]>> = rings
                     .iter()
@@ -1344,7 +1388,8 @@ fn assemble(kind: &str, outputs: Vec<CurveOutput>, job: &Job) -> Result<Assemble
                     })
                     .collect();
                 // Output positions are rounded when written; the pieces need no rounding here.
-                let split = split_polygon(&lonlat_rings, &|x| x);
+                let pole = poles.get(*key).copied().flatten();
+                let split = split_polygon_around(&lonlat_rings, &|x| x, pole);
                 for poly in split {
                     pieces.push(JsonOut::Array(
                         poly.iter()
@@ -1605,7 +1650,7 @@ pub fn evaluate_spline_document(
         ..job.clone()
     };
     let outputs = run_curves(&jobs, &evaluate)?;
-    let (geometry, info, stats, _) = assemble("LineString", outputs, job)?;
+    let (geometry, info, stats, _) = assemble("LineString", outputs, &[], job)?;
     Ok(ProcessedFeature {
         feature: JsonOut::object([
             ("type", JsonOut::Value(json!("Feature"))),

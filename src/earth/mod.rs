@@ -5,6 +5,7 @@
 //!
 //! * [`lonlat`]: degrees <-> unit vectors, radians <-> metres (mean radius 6,371,008.8 m).
 //! * [`antimeridian`]: lon/lat output cut at ±180 degrees (RFC 7946 §3.1.9), poles.
+//! * [`area`]: areas of polygons on the sphere (`area_m2`, `area_change` in reports).
 //! * [`sampling`]: dense output of a curve (`samples`, `spacing_m`, or automatic).
 //! * [`curve`]: one line or ring: positions parsed and checked, repeats dropped, fitted.
 //! * [`check_fit_options`], [`check_tolerance`], [`Job::validate`]: the option checks that
@@ -61,6 +62,7 @@
 //! ```
 
 pub mod antimeridian;
+pub mod area;
 pub mod curve;
 pub mod features;
 pub mod json_out;

@@ -137,56 +137,64 @@ fn check(name: &str, geometry: &Value, tolerance_m: f64) -> Vec<Value> {
 
 /// [`check`] in the given modes only.
 fn check_in(name: &str, geometry: &Value, tolerance_m: f64, modes: &[&str]) -> Vec<Value> {
-    let input = polygons(geometry);
-    let input_outline = outline(&input);
-    let slack = tolerance_m * 1e-3 + 0.05;
     let mut outs = Vec::new();
     for &mode in modes {
         let at = format!("{name} ({mode}, {tolerance_m} m)");
         let feature = fit(geometry, tolerance_m, mode);
-        let output = polygons(&feature["geometry"]);
-        for (i, poly) in output.iter().enumerate() {
-            for r in poly {
-                assert!(
-                    r.len() >= 4,
-                    "{at}: polygon {i}: a ring of {} positions",
-                    r.len()
-                );
-                assert_eq!(r.first(), r.last(), "{at}: polygon {i}: a ring not closed");
-                assert!(
-                    r.iter().all(|p| (-180.0..=180.0).contains(&p[0]) && (-90.0..=90.0).contains(&p[1])),
-                    "{at}: polygon {i} out of range"
-                );
-            }
-            let ls =
-                |r: &Ring| LineString::new(r.iter().map(|p| Coord { x: p[0], y: p[1] }).collect());
-            let g = Polygon::new(ls(&poly[0]), poly[1..].iter().map(ls).collect());
-            assert!(
-                g.is_valid(),
-                "{at}: polygon {i} is not valid: {:?}",
-                g.validation_errors()
-            );
-        }
-        let output_outline = outline(&output);
-        let d_in = max_to_outline_m(&input, &output_outline);
-        assert!(
-            d_in <= tolerance_m + slack,
-            "{at}: an input vertex {d_in:.1} m from the output"
-        );
-        let d_out = max_to_outline_m(&output, &input_outline);
-        assert!(
-            d_out <= tolerance_m + slack,
-            "{at}: an output vertex {d_out:.1} m from the input"
-        );
-        let (a_in, a_out) = (area_m2(&input), area_m2(&output));
-        let bound = 2.0 * tolerance_m * perimeter_m(&input_outline);
-        assert!(
-            (a_out - a_in).abs() <= bound,
-            "{at}: area {a_in:.4e} -> {a_out:.4e} m^2 (bound {bound:.3e})"
-        );
+        check_output(&at, geometry, &feature["geometry"], tolerance_m, true);
         outs.push(feature["geometry"].clone());
     }
     outs
+}
+
+/// Checks one fitted polygon geometry against its input as the module docs say: every ring
+/// closed with at least 4 positions in range, every polygon valid in the lon/lat plane (where
+/// `valid_input` says the input was), every input vertex off the seam within the tolerance of
+/// the output outline and back, the spherical area within 2 T x perimeter.
+fn check_output(at: &str, geometry: &Value, output: &Value, tolerance_m: f64, valid_input: bool) {
+    let input = polygons(geometry);
+    let input_outline = outline(&input);
+    let slack = tolerance_m * 1e-3 + 0.05;
+    let output = polygons(output);
+    for (i, poly) in output.iter().enumerate() {
+        for r in poly {
+            assert!(
+                r.len() >= 4,
+                "{at}: polygon {i}: a ring of {} positions",
+                r.len()
+            );
+            assert_eq!(r.first(), r.last(), "{at}: polygon {i}: a ring not closed");
+            assert!(
+                r.iter()
+                    .all(|p| (-180.0..=180.0).contains(&p[0]) && (-90.0..=90.0).contains(&p[1])),
+                "{at}: polygon {i} out of range"
+            );
+        }
+        let ls = |r: &Ring| LineString::new(r.iter().map(|p| Coord { x: p[0], y: p[1] }).collect());
+        let g = Polygon::new(ls(&poly[0]), poly[1..].iter().map(ls).collect());
+        assert!(
+            !valid_input || g.is_valid(),
+            "{at}: polygon {i} is not valid: {:?}",
+            g.validation_errors()
+        );
+    }
+    let output_outline = outline(&output);
+    let d_in = max_to_outline_m(&input, &output_outline);
+    assert!(
+        d_in <= tolerance_m + slack,
+        "{at}: an input vertex {d_in:.1} m from the output"
+    );
+    let d_out = max_to_outline_m(&output, &input_outline);
+    assert!(
+        d_out <= tolerance_m + slack,
+        "{at}: an output vertex {d_out:.1} m from the input"
+    );
+    let (a_in, a_out) = (area_m2(&input), area_m2(&output));
+    let bound = 2.0 * tolerance_m * perimeter_m(&input_outline);
+    assert!(
+        (a_out - a_in).abs() <= bound,
+        "{at}: area {a_in:.4e} -> {a_out:.4e} m^2 (bound {bound:.3e})"
+    );
 }
 
 fn load(name: &str) -> Value {
@@ -343,5 +351,111 @@ fn a_band_from_minus_180_to_180_is_refused_where_it_is() {
             stderr.contains("/coordinates/0") && stderr.contains("bounds no area"),
             "{mode}: {stderr}"
         );
+    }
+}
+
+/// Whether a lon/lat polygon geometry is valid in the plane (geo's OGC rules).
+fn valid_in_plane(geometry: &Value) -> bool {
+    polygons(geometry).iter().all(|poly| {
+        let ls = |r: &Ring| LineString::new(r.iter().map(|p| Coord { x: p[0], y: p[1] }).collect());
+        Polygon::new(ls(&poly[0]), poly[1..].iter().map(ls).collect()).is_valid()
+    })
+}
+
+/// Natural Earth's 110m countries as GIS packages ship them (pyogrio's `naturalearth_lowres`
+/// shapefile, converted by GDAL): Fiji and Russia cut at ±180, Antarctica closed along the
+/// South Pole, a `crs` member. Through the CLI in both modes and the service, at 100 m and
+/// 1 km: every feature back in order with its properties and the document's members, every
+/// polygon checked as [`check_output`] does (valid wherever the input is: Sudan's input ring
+/// touches itself).
+#[test]
+fn natural_earth_countries_as_gis_packages_ship_them_come_back_whole() {
+    let path = fixture_path("naturalearth_lowres_gdal.geojson");
+    let input: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let features = input["features"].as_array().unwrap();
+    assert_eq!(features.len(), 177);
+    let valid: Vec<bool> = features
+        .iter()
+        .map(|f| valid_in_plane(&f["geometry"]))
+        .collect();
+    assert_eq!(valid.iter().filter(|v| !**v).count(), 1, "Sudan only");
+    for tolerance_m in [100.0, 1000.0] {
+        let t = tolerance_m.to_string();
+        let mut outputs = Vec::new();
+        for mode in ["per-feature", "shared"] {
+            let o = run_spherefit(
+                &["fit", "--tolerance-m", &t, "--topology", mode, "-q", &path],
+                None,
+            );
+            assert!(
+                o.status.success(),
+                "{mode}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            outputs.push((
+                format!("CLI {mode}"),
+                serde_json::from_slice::<Value>(&o.stdout).unwrap(),
+            ));
+        }
+        let (status, _, body) = crate::helpers::post_geo_oneshot(
+            &format!("/v1/fit?tolerance_m={t}&topology=shared"),
+            &input,
+        );
+        assert_eq!(status, 200, "{body}");
+        outputs.push(("HTTP shared".into(), body));
+        for (how, out) in &outputs {
+            assert_eq!(out["crs"], input["crs"], "{how}");
+            assert_eq!(out["name"], input["name"], "{how}");
+            let got = out["features"].as_array().unwrap();
+            assert_eq!(got.len(), features.len(), "{how}");
+            for (i, (f, g)) in features.iter().zip(got).enumerate() {
+                let name = f["properties"]["name"].as_str().unwrap();
+                for (k, v) in f["properties"].as_object().unwrap() {
+                    assert_eq!(&g["properties"][k], v, "{how}: {name}: {k}");
+                }
+                assert_eq!(
+                    g["properties"]["fit"]["tolerance_met"], true,
+                    "{how}: {name}"
+                );
+                let at = format!("{name} ({how}, {tolerance_m} m, feature {i})");
+                check_output(&at, &f["geometry"], &g["geometry"], tolerance_m, valid[i]);
+            }
+        }
+    }
+}
+
+/// The `antimeridian` package's own cut output of two Sentinel-3 swaths: one forced onto the
+/// North Pole (its larger side, 163 vertices were lost when it was closed along the smaller
+/// one), one whose parts overlap across ±180 (an output edge spanned 360 degrees). Each comes
+/// back with every vertex within the tolerance both ways, in both modes.
+#[test]
+fn swaths_cut_onto_their_larger_side_or_overlapping_come_back_whole() {
+    for name in ["force-north-pole", "overlap"] {
+        let g = load(&format!("antimeridian/{name}.cut.json"));
+        let valid = valid_in_plane(&g);
+        for mode in ["per-feature", "shared"] {
+            let out = fit(&g, 100.0, mode);
+            check_output(
+                &format!("{name} ({mode})"),
+                &g,
+                &out["geometry"],
+                100.0,
+                valid,
+            );
+            // No edge wider than 180 degrees but along a pole.
+            for poly in polygons(&out["geometry"]) {
+                for r in poly {
+                    for w in r.windows(2) {
+                        assert!(
+                            (w[1][0] - w[0][0]).abs() <= 180.0
+                                || (w[0][1].abs() == 90.0 && w[0][1] == w[1][1]),
+                            "{name} ({mode}): edge {:?} -> {:?}",
+                            w[0],
+                            w[1]
+                        );
+                    }
+                }
+            }
+        }
     }
 }

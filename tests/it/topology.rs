@@ -742,3 +742,152 @@ async fn the_service_fits_coverages_on_request() {
     let (s, _, v) = send("topology=maybe&tolerance_m=500").await;
     assert_eq!((s, v["parameter"].as_str()), (400, Some("topology")), "{v}");
 }
+
+/// Runs `scripts/coverage/topojson_read.mjs` (npm `topojson-client`, installed by
+/// `npm ci --prefix scripts/coverage`). False, with a notice, where node or the package is
+/// missing, unless `SPHEREFIT_TEST_TOOLS=required` (set by `.ci/run`).
+fn topojson_client(args: &[&str]) -> bool {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let installed = root
+        .join("scripts/coverage/node_modules/topojson-client")
+        .exists();
+    let required = std::env::var("SPHEREFIT_TEST_TOOLS").as_deref() == Ok("required");
+    if !installed {
+        assert!(
+            !required,
+            "topojson-client is not installed: npm ci --prefix scripts/coverage"
+        );
+        println!(
+            "NOTICE: topojson-client (npm ci --prefix scripts/coverage) is not installed: skipped"
+        );
+        return false;
+    }
+    let o = Command::new("node")
+        .arg(root.join("scripts/coverage/topojson_read.mjs"))
+        .args(args)
+        .output()
+        .expect("node runs");
+    assert!(
+        o.status.success(),
+        "topojson_read.mjs {args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    true
+}
+
+/// Every feature of `read` (a reader's GeoJSON of spherefit's TopoJSON) has the geometry and
+/// the name of the same feature in `written` (spherefit's GeoJSON output of the same fit).
+fn same_features(reader: &str, read: &Value, written: &Value) {
+    let (r, w) = (
+        read["features"].as_array().unwrap(),
+        written["features"].as_array().unwrap(),
+    );
+    assert_eq!(r.len(), w.len(), "{reader}: feature count");
+    for (i, (a, b)) in r.iter().zip(w).enumerate() {
+        let name = &b["properties"]["name"];
+        assert_eq!(&a["properties"]["name"], name, "{reader}: feature {i}");
+        let (pa, pb) = (polygons(&a["geometry"]), polygons(&b["geometry"]));
+        assert_eq!(pa.len(), pb.len(), "{reader}: {name}: polygons");
+        for (qa, qb) in pa.iter().zip(&pb) {
+            assert_eq!(qa.len(), qb.len(), "{reader}: {name}: rings");
+            for (ra, rb) in qa.iter().zip(qb) {
+                assert!(rb.len() >= 4, "{reader}: {name}: a ring of {}", rb.len());
+                assert_eq!(ra.len(), rb.len(), "{reader}: {name}: positions");
+                for (p, q) in ra.iter().zip(rb) {
+                    assert!(
+                        (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
+                        "{reader}: {name}: {p:?} against {q:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The Natural Earth 50m and 10m countries of npm `world-atlas` (decoded with topojson-client),
+/// fitted with shared topology at 1 km and written as TopoJSON, come back whole through the
+/// readers people use: topojson-client (d3 maps) and GDAL's TopoJSON driver (QGIS, ogr2ogr)
+/// find every feature with the rings of spherefit's GeoJSON output of the same fit, Russia,
+/// Fiji and Antarctica (cut at ±180) included.
+#[test]
+fn world_atlas_countries_come_back_whole_through_topojson_client_and_gdal() {
+    for name in ["countries-50m", "countries-10m"] {
+        let dir = scratch(name);
+        let p = |f: &str| dir.join(f).to_str().unwrap().to_string();
+        if !topojson_client(&["world-atlas", name, &p("input.geojson")]) {
+            return;
+        }
+        let input: Value =
+            serde_json::from_slice(&std::fs::read(p("input.geojson")).unwrap()).unwrap();
+        for (out, format) in [("fit.topojson", "topojson"), ("fit.geojson", "geojson")] {
+            let o = run_spherefit(
+                &[
+                    "fit",
+                    "--topology",
+                    "shared",
+                    "--tolerance-m",
+                    "1000",
+                    "--output-format",
+                    format,
+                    &p("input.geojson"),
+                    "-o",
+                    &p(out),
+                ],
+                None,
+            );
+            assert!(
+                o.status.success(),
+                "{name}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        let written: Value =
+            serde_json::from_slice(&std::fs::read(p("fit.geojson")).unwrap()).unwrap();
+        let features = input["features"].as_array().unwrap();
+        assert_eq!(
+            written["features"].as_array().unwrap().len(),
+            features.len()
+        );
+        let split = written["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| f["properties"]["fit"]["antimeridian_split"] == true)
+            .count();
+        // Antarctica at least (Russia and Fiji too at 50m; at 10m their parts meet ±180 at
+        // latitudes a quantum apart, so they are fitted as they came and need no cut).
+        assert!(split >= 1, "{name}: {split} features cut at ±180");
+        assert!(topojson_client(&[
+            "read",
+            &p("fit.topojson"),
+            &p("client.geojson")
+        ]));
+        let client: Value =
+            serde_json::from_slice(&std::fs::read(p("client.geojson")).unwrap()).unwrap();
+        same_features("topojson-client", &client, &written);
+        let _ = std::fs::remove_file(p("gdal.geojson"));
+        match Command::new("ogr2ogr")
+            .args(["-f", "GeoJSON", &p("gdal.geojson"), &p("fit.topojson")])
+            .output()
+        {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                assert!(
+                    std::env::var("SPHEREFIT_TEST_TOOLS").as_deref() != Ok("required"),
+                    "ogr2ogr (Debian gdal-bin) is not installed"
+                );
+                println!("NOTICE: ogr2ogr (GDAL) is not installed: the GDAL half was skipped");
+            }
+            Err(e) => panic!("ogr2ogr: {e}"),
+            Ok(o) => {
+                assert!(
+                    o.status.success(),
+                    "ogr2ogr: {}",
+                    String::from_utf8_lossy(&o.stderr)
+                );
+                let gdal: Value =
+                    serde_json::from_slice(&std::fs::read(p("gdal.geojson")).unwrap()).unwrap();
+                same_features("GDAL", &gdal, &written);
+            }
+        }
+    }
+}

@@ -23,7 +23,7 @@
 pub mod rejoin;
 pub mod split;
 
-pub use split::split_polygon;
+pub use split::{split_polygon, split_polygon_around};
 
 use super::lonlat::unit_to_lonlat;
 use crate::sphere::geometry::point::angle_between;

@@ -24,8 +24,19 @@ const SAME_LAT_DEG: f64 = 1e-7;
 /// A position by (polygon, ring, index) in the input.
 type At = (usize, usize, usize);
 
-/// Rejoined polygons: each a list of (pointer of the input ring it starts from, ring value).
-pub type Rejoined = Vec<Vec<(String, Value)>>;
+/// One rejoined polygon.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RejoinedPolygon {
+    /// Its rings, exterior first: (pointer of the input ring each starts from, ring value).
+    pub rings: Vec<(String, Value)>,
+    /// For an exterior that goes round a pole, the latitude of the pole (90 or -90) the input
+    /// was closed along: the output is closed along the same one
+    /// ([`super::split::split_polygon_around`]), which is not always the smaller side.
+    pub pole: Option<f64>,
+}
+
+/// Rejoined polygons.
+pub type Rejoined = Vec<RejoinedPolygon>;
 
 fn is_pole(lat: f64) -> bool {
     lat.abs() == 90.0
@@ -249,14 +260,37 @@ pub fn rejoin_cut_polygons(polygons: &[(String, &Value)]) -> Option<Result<Rejoi
         if ((north || south) && !(winds && north != south)) || (shared && winds) {
             return None;
         }
-        out.push(vec![(pointer_of(&ring[0]), value_of(ring))]);
+        out.push(RejoinedPolygon {
+            rings: vec![(pointer_of(&ring[0]), value_of(ring))],
+            pole: (winds && north != south).then_some(if north { 90.0 } else { -90.0 }),
+        });
     }
     for (p, ring) in &joined_holes {
         let k = home[*p];
         if k == usize::MAX {
             return None;
         }
-        out[k].push((pointer_of(&ring[0]), value_of(ring)));
+        out[k].rings.push((pointer_of(&ring[0]), value_of(ring)));
+    }
+    // The rejoined polygon must be one the output can be written as again; one that is not
+    // (parts overlapping across ±180, a swath folded back over the pole it was closed along)
+    // is fitted as it came.
+    for poly in &out {
+        let rings: Vec<Vec<[f64; 3]>> = poly
+            .rings
+            .iter()
+            .map(|(_, r)| {
+                r.as_array()
+                    .into_iter()
+                    .flatten()
+                    .filter_map(lonlat)
+                    .map(|q| [q[0], q[1], 0.0])
+                    .collect()
+            })
+            .collect();
+        if !super::split::writes_back_whole(&rings, poly.pole) {
+            return None;
+        }
     }
     Some(Ok(out))
 }
@@ -277,7 +311,7 @@ mod tests {
         rejoin_cut_polygons(&polys).map(|v| {
             v.expect("a ring with area")
                 .into_iter()
-                .map(|p| p.into_iter().map(|(_, r)| r).collect())
+                .map(|p| p.rings.into_iter().map(|(_, r)| r).collect())
                 .collect()
         })
     }

@@ -96,7 +96,12 @@ fn unwrap(ring: &[Position]) -> (Vec<Position>, f64, bool) {
 /// A ring around a pole (winding ±360), turned to start on a cut line so it spans exactly
 /// [-180, 180] (the start at -180 for an eastward ring, +180 for a westward one), then closed
 /// along that meridian and the pole.
-fn close_around_pole(ring: Vec<Position>, winding: f64, flip: bool) -> Vec<Position> {
+fn close_around_pole(
+    ring: Vec<Position>,
+    winding: f64,
+    flip: bool,
+    pole_hint: Option<f64>,
+) -> Vec<Position> {
     let n = ring.len() - 1; // the last vertex is the first one turned once round
     let start = (0..n).find(|&i| on_cut_line(ring[i][0])).unwrap_or(0);
     let mut turned: Vec<Position> = Vec::with_capacity(n + 4);
@@ -114,14 +119,17 @@ fn close_around_pole(ring: Vec<Position>, winding: f64, flip: bool) -> Vec<Posit
     // shapefiles turns the other way. (A cap cut along its pole, Antarctica or an Arctic
     // cap, is the smaller side of its ring.)
     // A ring that already runs through a pole is a cut form fitted as it came: closed along
-    // that pole, or with both, along the one on its left (RFC 7946 orientation).
+    // that pole, or with both, along the one on its left (RFC 7946 orientation). A ring
+    // rejoined from a cut form keeps the pole that form was closed along (`pole_hint`), even
+    // on its larger side: that is the region the data says it is.
     turned.push(end);
     let at = |lat: f64| turned.iter().any(|p| p[1] == lat);
-    let north = match (at(90.0), at(-90.0)) {
-        (true, false) => true,
-        (false, true) => false,
-        (true, true) => winding > 0.0,
-        (false, false) => north_side_area(&turned) <= 2.0 * std::f64::consts::PI,
+    let north = match (at(90.0), at(-90.0), pole_hint) {
+        (true, false, _) => true,
+        (false, true, _) => false,
+        (true, true, _) => winding > 0.0,
+        (false, false, Some(lat)) => lat > 0.0,
+        (false, false, None) => north_side_area(&turned) <= 2.0 * std::f64::consts::PI,
     };
     let pole = if north != flip { 90.0 } else { -90.0 };
     turned.push([end[0], pole, end[2]]);
@@ -187,15 +195,36 @@ pub fn split_polygon(
     rings: &[Vec<Position>],
     round: &dyn Fn(f64) -> f64,
 ) -> Vec<Vec<Vec<Position>>> {
-    let (out, lost, polar) = split_closing(rings, round, false);
+    split_polygon_around(rings, round, None)
+}
+
+/// [`split_polygon`] for a polygon whose exterior, if it goes round a pole, is closed along
+/// the pole at latitude `pole` (90 or -90) when given: the pole a cut-form input was closed
+/// along ([`super::rejoin::RejoinedPolygon::pole`]), which may be its larger side (a swath
+/// or a cap forced onto the pole it does not need).
+pub fn split_polygon_around(
+    rings: &[Vec<Position>],
+    round: &dyn Fn(f64) -> f64,
+    pole: Option<f64>,
+) -> Vec<Vec<Vec<Position>>> {
+    split_counting_losses(rings, round, pole).0
+}
+
+/// [`split_polygon_around`], and how many pieces it lost for want of an exterior.
+fn split_counting_losses(
+    rings: &[Vec<Position>],
+    round: &dyn Fn(f64) -> f64,
+    pole: Option<f64>,
+) -> (Vec<Vec<Vec<Position>>>, usize) {
+    let (out, lost, polar) = split_closing(rings, round, false, pole);
     if lost == 0 || !polar {
-        return out;
+        return (out, lost);
     }
-    let (other, lost_other, _) = split_closing(rings, round, true);
+    let (other, lost_other, _) = split_closing(rings, round, true, pole);
     if lost_other < lost {
-        other
+        (other, lost_other)
     } else {
-        out
+        (out, lost)
     }
 }
 
@@ -206,6 +235,7 @@ fn split_closing(
     rings: &[Vec<Position>],
     round: &dyn Fn(f64) -> f64,
     flip: bool,
+    pole: Option<f64>,
 ) -> (Vec<Vec<Vec<Position>>>, usize, bool) {
     let rings: Vec<&Vec<Position>> = rings.iter().filter(|r| r.len() >= 2).collect();
     if rings.is_empty() {
@@ -217,7 +247,7 @@ fn split_closing(
     for ring in &rings {
         let (mut u, winding, crossed) = unwrap(ring);
         if winding.abs() > 180.0 {
-            u = close_around_pole(u, winding, flip);
+            u = close_around_pole(u, winding, flip, pole);
             any = true;
             polar = true;
         }
@@ -282,6 +312,21 @@ fn split_closing(
         }
     }
     (out, lost, polar)
+}
+
+/// Whether a polygon closed along `pole` (if it goes round one) is written back whole: no
+/// piece lost in a strip, and no edge wider than 180 degrees of longitude except along a pole.
+/// [`super::rejoin::rejoin_cut_polygons`] asks this of the input it rejoined: a cut form that
+/// does not pass (a swath whose parts overlap across ±180, or that folds back over a pole it
+/// was forced onto) is fitted as it came instead.
+pub(crate) fn writes_back_whole(rings: &[Vec<Position>], pole: Option<f64>) -> bool {
+    let (out, lost) = split_counting_losses(rings, &|x| x, pole);
+    lost == 0
+        && out.iter().flatten().all(|ring| {
+            ring.windows(2).all(|w| {
+                (w[1][0] - w[0][0]).abs() <= 180.0 || (w[0][1].abs() == 90.0 && w[0][1] == w[1][1])
+            })
+        })
 }
 
 fn x_range(rings: &[Vec<Position>]) -> (f64, f64) {

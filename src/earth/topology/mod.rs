@@ -39,6 +39,7 @@ pub mod arcs;
 pub const TIGHTEN_ROUNDS: usize = 3;
 
 use super::antimeridian;
+use super::area;
 use super::curve::{
     compression_ratio, prepare_line, round_spline, round_up_m, rounding_bound_rad, sampling_start,
     sphere_error, tolerance_target_rad,
@@ -292,6 +293,8 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     let mut rings: Vec<InputRing> = Vec::new();
     let mut sources: Vec<RingSource> = Vec::new();
     let mut input_ll: Vec<Vec<Vec<Vec<[f64; 2]>>>> = vec![Vec::new(); doc.slots.len()];
+    // The pole each rejoined polygon of a feature was closed along in its cut-form input.
+    let mut polygon_poles: Vec<Vec<Option<f64>>> = vec![Vec::new(); doc.slots.len()];
     for (fi, slot) in doc.slots.iter().enumerate() {
         job.cancel
             .check()
@@ -347,8 +350,9 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         match &rejoined {
             Some(polys) => {
                 for poly in polys {
-                    ring_sets.push(poly.iter().map(|(p, r)| (p.clone(), r)).collect());
+                    ring_sets.push(poly.rings.iter().map(|(p, r)| (p.clone(), r)).collect());
                 }
+                polygon_poles[fi] = polys.iter().map(|p| p.pole).collect();
             }
             None => {
                 for (pptr, poly) in &polygons {
@@ -569,14 +573,35 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
             if ll_rings.iter().all(|r| is_plain(r)) {
                 out_polys.push(json!(ll_rings));
                 out_ll.push(ll_rings);
-                ring_uses_out.push(poly.iter().map(|(_, u)| u.to_vec()).collect::<Vec<_>>());
+                // An arc that rounds to one position (two junctions closer than the
+                // precision) adds nothing to the ring but a zero-length edge in readers that
+                // join arcs; the ring's TopoJSON leaves it out.
+                let degenerate = |u: &ArcUse| {
+                    let d = &fitted[u.arc].dense_ll;
+                    d.iter().all(|p| *p == d[0])
+                };
+                ring_uses_out.push(
+                    poly.iter()
+                        .map(|(_, uses)| {
+                            let kept: Vec<ArcUse> =
+                                uses.iter().filter(|u| !degenerate(u)).copied().collect();
+                            if kept.is_empty() {
+                                uses.to_vec()
+                            } else {
+                                kept
+                            }
+                        })
+                        .collect::<Vec<_>>(),
+                );
             } else {
                 split_any = true;
                 let rings3: Vec<Vec<[f64; 3]>> = ll_rings
                     .iter()
                     .map(|r| r.iter().map(|p| [p[0], p[1], 0.0]).collect())
                     .collect();
-                let split = antimeridian::split_polygon(&rings3, &|x| round_to(x, precision));
+                let pole = polygon_poles[fi].get(pi).copied().flatten();
+                let split =
+                    antimeridian::split_polygon_around(&rings3, &|x| round_to(x, precision), pole);
                 for rings_ll in split {
                     let rings_ll: Vec<Vec<[f64; 2]>> = rings_ll
                         .iter()
@@ -606,13 +631,9 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         let stored: usize = feature_arcs.iter().map(|a| a.stored_numbers).sum();
         let n_in: usize = input_ll[fi].iter().flatten().map(Vec::len).sum();
         let n_out: usize = out_ll.iter().flatten().map(Vec::len).sum();
-        let area_in = sphere_area_m2(&input_ll[fi]);
-        let area_out = sphere_area_m2(&out_ll);
-        let area_change = if area_in > 0.0 {
-            area_out / area_in - 1.0
-        } else {
-            0.0
-        };
+        let area_in = area::lonlat_polygons_area_m2(&input_ll[fi]);
+        let area_out = area::lonlat_polygons_area_m2(&out_ll);
+        let area_change = area::area_change(area_in, area_out);
         let shared = arcs_used
             .iter()
             .filter(|&&a| graph.arcs[a].uses > 1)
@@ -861,48 +882,6 @@ fn is_plain(ring: &[[f64; 2]]) -> bool {
     ring.windows(2).all(|w| (w[1][0] - w[0][0]).abs() <= 180.0)
 }
 
-/// Area (square metres, on the sphere of radius [`super::EARTH_RADIUS_M`]) of lon/lat polygons:
-/// each ring's solid angle as a fan of triangles from its mean direction (Van Oosterom and
-/// Strackee's formula), exteriors minus holes. Independent of how longitudes wrap, so rings
-/// across the antimeridian (input) and their split pieces (output) compare honestly; geo's
-/// lon/lat area algorithms do not handle the first.
-fn sphere_area_m2(polygons: &[Vec<Vec<[f64; 2]>>]) -> f64 {
-    use super::lonlat::lonlat_to_unit;
-    let ring_area = |r: &Vec<[f64; 2]>| -> f64 {
-        let u: Vec<[f64; 3]> = r.iter().map(|p| lonlat_to_unit(p[0], p[1])).collect();
-        let mut c = [0.0f64; 3];
-        for p in &u {
-            for k in 0..3 {
-                c[k] += p[k];
-            }
-        }
-        let n = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        if n == 0.0 {
-            return 0.0;
-        }
-        let c = [c[0] / n, c[1] / n, c[2] / n];
-        let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        let mut omega = 0.0;
-        for w in u.windows(2) {
-            let (a, b) = (&w[0], &w[1]);
-            let x = [
-                a[1] * b[2] - a[2] * b[1],
-                a[2] * b[0] - a[0] * b[2],
-                a[0] * b[1] - a[1] * b[0],
-            ];
-            let num = dot(&c, &x);
-            let den = 1.0 + dot(&c, a) + dot(a, b) + dot(b, &c);
-            omega += 2.0 * num.atan2(den);
-        }
-        omega.abs() * super::EARTH_RADIUS_M * super::EARTH_RADIUS_M
-    };
-    polygons
-        .iter()
-        .filter(|p| !p.is_empty())
-        .map(|p| ring_area(&p[0]) - p[1..].iter().map(ring_area).sum::<f64>())
-        .sum()
-}
-
 /// Fits one arc to the tolerance with pinned ends (see the module docs), rounds it, samples it
 /// and measures the curve as returned.
 fn fit_arc(
@@ -1035,6 +1014,27 @@ fn fit_arc(
     if closed {
         dense_ll[last] = dense_ll[0];
         pts[last] = pts[0];
+    }
+    // Neighbours that round to one position are written once: readers that join arcs (GDAL,
+    // topojson-client) would otherwise keep a zero-length edge the GeoJSON output does not
+    // have. The ends stay (a closed arc keeps both copies of its first position).
+    let mut keep = vec![true; dense_ll.len()];
+    let mut prev = 0;
+    for i in 1..dense_ll.len() {
+        if dense_ll[i] == dense_ll[prev] && i != last {
+            keep[i] = false;
+        } else {
+            if dense_ll[i] == dense_ll[prev] && prev != 0 {
+                keep[prev] = false;
+            }
+            prev = i;
+        }
+    }
+    if keep.iter().any(|k| !k) {
+        let mut k = keep.iter();
+        dense_ll.retain(|_| *k.next().expect("one flag a position"));
+        let mut k = keep.iter();
+        pts.retain(|_| *k.next().expect("one flag a position"));
     }
     let stored = stored_numbers(&spline, rule);
     let met = max_rad.max(tw_rad) <= tol_rad;
