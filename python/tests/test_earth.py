@@ -176,15 +176,25 @@ def test_fit_shared_topology_equals_cli(tmp_path):
 
 def test_fit_drop_small_rings_equals_cli_in_both_topologies():
     path = FIXTURES / "small_rings.geojson"
-    gdf = frame(path)
+    # The fixture's third feature (a MultiPoint of mixed dimensions) has no WKB form.
+    gdf = frame(path).iloc[:2]
     for topology in ["per-feature", "shared"]:
         cli = run_cli(
             "fit", "-q", "--tolerance-m", "1000", "--topology", topology, "--drop-small-rings", path
         )
         out = spherefit.fit(gdf, tolerance_m=1000, topology=topology, drop_small_rings=True)
-        assert_equals_cli(out, cli["features"], "fit")
+        features = cli["features"][:2]
+        if topology == "per-feature":
+            # Per row, pointers are into the row's geometry, as in every error of spherefit.fit;
+            # a coverage's are into the document the rows make, as its arcs are.
+            for i, f in enumerate(features):
+                for k in ("kept_rings", "dropped_rings"):
+                    prefix = f"/features/{i}/geometry"
+                    f["properties"]["fit"][k] = [p[len(prefix):] for p in f["properties"]["fit"][k]]
+        assert_equals_cli(out, features, "fit")
         dropped = json.loads(out["fit"].iloc[1])["dropped_rings"]
-        assert dropped == ["/features/1/geometry/coordinates/1"], topology
+        expected = "/coordinates/1" if topology == "per-feature" else "/features/1/geometry/coordinates/1"
+        assert dropped == [expected], topology
         kept = spherefit.fit(gdf, tolerance_m=1000, topology=topology)
         assert "dropped_rings" not in json.loads(kept["fit"].iloc[1]), topology
 
