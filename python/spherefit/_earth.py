@@ -141,8 +141,59 @@ def _call(native: Any, index: Any, *args: Any, **kwargs: Any):
         raise SpherefitError(message, e.index, e.pointer, e.problem) from None
 
 
-def _sampling(samples: Optional[int], spacing_m: Optional[float]) -> Dict[str, Any]:
-    return {"samples": samples, "spacing_m": spacing_m}
+#: The properties a fit in time reads its times from when ``time_property`` is not given, in
+#: this order (those of ``spherefit fit``).
+TIME_PROPERTIES: Sequence[str] = ("coordTimes", "times", "timestamps")
+
+
+def _json_value(v: Any) -> Any:
+    """A cell of a time column as JSON: lists, arrays and timestamps (RFC 3339 text)."""
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (list, tuple)):
+        return [_json_value(x) for x in v]
+    if hasattr(v, "isoformat"):
+        return v.isoformat().replace("+00:00", "Z")
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _time_properties(frame: Any, n: int, options: Dict[str, Any]) -> Optional[List[Optional[str]]]:
+    """For a fit in time, each row's time column as a properties object (JSON text), as the
+    CLI reads ``time_property`` (or the first of :data:`TIME_PROPERTIES`) from a feature."""
+    in_time = (
+        options.get("parameterization") == "time"
+        or options.get("time_property") is not None
+        or options.get("spacing_s") is not None
+    )
+    if not in_time or frame is None:
+        return None
+    name = options.get("time_property")
+    names = [name] if name is not None else [c for c in TIME_PROPERTIES if c in frame.columns]
+    names = [c for c in names if c in frame.columns]
+    if not names:
+        return None
+    rows: List[Optional[str]] = []
+    for i in range(n):
+        props = {}
+        for c in names:
+            v = frame[c].iloc[i]
+            if v is None or (isinstance(v, float) and np.isnan(v)):
+                continue
+            props[c] = _json_value(v)
+        rows.append(json.dumps(props))
+    return rows
+
+
+def _times_text(at: Any) -> Optional[str]:
+    """``at`` as the comma-separated text the CLI's ``--at`` takes: numbers (unix seconds),
+    RFC 3339 strings, datetimes or pandas Timestamps, or that text already."""
+    if at is None or isinstance(at, str):
+        return at
+    if not isinstance(at, (list, tuple, np.ndarray)) and not hasattr(at, "__iter__"):
+        at = [at]
+    return ",".join(str(_json_value(t)) for t in at)
 
 
 def fit(
@@ -156,8 +207,12 @@ def fit(
     parameter_correction: bool = True,
     samples: Optional[int] = None,
     spacing_m: Optional[float] = None,
+    spacing_s: Optional[float] = None,
     iterations: int = 30,
-    parameterization: str = "chord",
+    parameterization: Optional[str] = None,
+    time_property: Optional[str] = None,
+    topology: str = "per-feature",
+    drop_small_rings: bool = False,
     precision: int = 7,
     max_samples: int = 100_000,
     max_control_points: int = 10_000,
@@ -178,45 +233,73 @@ def fit(
     ``properties.fit`` of the CLI as JSON text, the compact spline included, which
     :func:`evaluate` turns back into the curve. Columns of those names are overwritten.
 
-    Options are those of ``spherefit fit``: ``tolerance_m`` fits each curve to a tolerance in
-    metres with as few stored numbers as the fitter finds (not with ``control_points``;
-    ``degree`` caps the degrees tried, at most 3); otherwise ``control_points`` (default a
-    quarter of the distinct positions), ``degree`` (1 to 5), ``knots`` (``adaptive``,
-    ``geodesic``, ``euclidean``, ``uniform``), ``solver`` (``gauss-newton``, ``gls-pia``),
-    ``parameter_correction`` (foot-point parameters between solver steps), ``iterations`` and
-    ``parameterization`` (``chord``, ``centripetal``, ``uniform``); the defaults are the
-    service's (the paper's method: ``knots="geodesic", solver="gls-pia",
-    parameter_correction=False``). Output density:
-    ``samples`` points per curve, or ``spacing_m`` metres apart (both: at most that far apart and
-    at least that many), or automatic; ``precision`` decimals of output degrees.
+    The options are those of ``spherefit fit`` and ``POST /v1/fit`` (the same names, values and
+    defaults; the library checks them, so an error names the option as the service does):
+
+    * ``tolerance_m``: fit each curve to this tolerance in metres with as few stored numbers as
+      the fitter finds (excludes ``control_points``; ``degree`` caps the degrees tried, at most
+      3). Default: none, a fit with ``control_points`` (default a quarter of the distinct
+      positions, or half when a quarter leaves a position too far).
+    * ``degree`` (1 to 5, default 3), ``knots`` (``adaptive`` default, ``geodesic``,
+      ``euclidean``, ``uniform``), ``solver`` (``gauss-newton`` default, ``gls-pia``),
+      ``parameter_correction`` (foot-point parameters between solver steps, default True),
+      ``iterations`` (default 30).
+    * ``parameterization``: ``chord`` (the default), ``centripetal``, ``uniform`` or ``time``
+      (position as a function of time: with ``tolerance_m`` the bound is the synchronized
+      distance). ``time_property`` names the column holding each row's times (a list of RFC
+      3339 strings, datetimes or unix seconds, one per position; default the first of
+      :data:`TIME_PROPERTIES` present) and, like ``spacing_s``, implies ``time``.
+    * ``topology``: ``per-feature`` (default) or ``shared``: the Polygon and MultiPolygon rows
+      are one coverage, each border shared by neighbours fitted once (needs ``tolerance_m``);
+      the output frame's ``attrs["topology"]`` then holds the dataset report and every arc's
+      spline (the ``topology`` member of the CLI's output).
+    * ``drop_small_rings``: a ring that collapses under the fit is dropped and listed in
+      ``dropped_rings`` of the ``fit`` JSON instead of kept as a small valid ring (default
+      False); a row left with no polygon gets an empty MultiPolygon.
+    * Output density: ``samples`` points per curve, or ``spacing_m`` metres apart (both: at most
+      that far apart and at least that many), or for a fit in time ``spacing_s`` seconds apart;
+      default automatic. ``precision`` decimals of output degrees (default 7).
+    * Limits: ``max_samples``, ``max_control_points``, ``max_iterations``.
 
     Raises :class:`SpherefitError` (a ``ValueError``) naming the feature index and the
     coordinate (``feature 3 at /coordinates/17/1: ...``) or the option.
     """
     arr, index, crs, frame = _geometry_input(geoms)
     _check_crs(crs)
-    result = _call(
-        _native.fit_wkb,
-        index,
-        _to_wkb(arr),
+    options: Dict[str, Any] = dict(
         tolerance_m=tolerance_m,
         control_points=control_points,
         degree=degree,
         knots=knots,
         iterations=iterations,
         parameterization=parameterization,
+        time_property=time_property,
         solver=solver,
         parameter_correction=parameter_correction,
+        samples=samples,
+        spacing_m=spacing_m,
+        spacing_s=spacing_s,
         precision=precision,
+        topology=topology,
+        drop_small_rings=drop_small_rings,
+    )
+    wkbs, infos, scalars, topology_json = _call(
+        _native.fit_wkb,
+        index,
+        _to_wkb(arr),
+        properties=_time_properties(frame, len(arr), options),
         max_samples=max_samples,
         max_control_points=max_control_points,
         max_iterations=max_iterations,
-        **_sampling(samples, spacing_m),
+        **options,
     )
     columns = dict(FIT_COLUMNS)
     if tolerance_m is not None:
         columns.update(TOLERANCE_COLUMNS)
-    return _assemble(arr, index, crs, frame, result, columns, "fit")
+    out = _assemble(arr, index, crs, frame, (wkbs, infos, scalars), columns, "fit")
+    if topology_json is not None:
+        out.attrs["topology"] = json.loads(topology_json)
+    return out
 
 
 def interpolate(
@@ -243,9 +326,10 @@ def interpolate(
         _to_wkb(arr),
         beta1=beta1,
         beta2=beta2,
+        samples=samples,
+        spacing_m=spacing_m,
         precision=precision,
         max_samples=max_samples,
-        **_sampling(samples, spacing_m),
     )
     return _assemble(arr, index, crs, frame, result, INTERPOLATE_COLUMNS, "interpolation")
 
@@ -255,6 +339,8 @@ def evaluate(
     *,
     samples: Optional[int] = None,
     spacing_m: Optional[float] = None,
+    spacing_s: Optional[float] = None,
+    at: Any = None,
     key: Optional[str] = None,
     precision: int = 7,
     max_samples: int = 100_000,
@@ -266,8 +352,11 @@ def evaluate(
     ``fit`` or ``interpolation`` column of JSON text; ``key`` picks one when both are there),
     or a sequence of such JSON texts or dicts (``None`` for none; then ``key`` says which kind,
     default ``fit``). Returns a GeoDataFrame whose geometry is the curve sampled as ``samples``
-    / ``spacing_m`` say, with the columns of :data:`EVALUATE_COLUMNS` and ``evaluation`` (JSON);
-    rows without a curve keep their geometry.
+    / ``spacing_m`` say (or, for a fit in time, every ``spacing_s`` seconds), with the columns
+    of :data:`EVALUATE_COLUMNS` and ``evaluation`` (JSON); rows without a curve keep their
+    geometry. ``at`` (fits in time only): the positions at these times instead (a MultiPoint
+    per row), with ``speed_mps`` and ``heading_deg`` in ``evaluation``; unix seconds, RFC 3339
+    strings or datetimes (a list, or the CLI's comma-separated text).
     """
     import geopandas as gpd
 
@@ -309,10 +398,13 @@ def evaluate(
         index,
         texts,
         key,
+        samples=samples,
+        spacing_m=spacing_m,
+        spacing_s=spacing_s,
+        at=_times_text(at),
         precision=precision,
         max_samples=max_samples,
         max_control_points=max_control_points,
-        **_sampling(samples, spacing_m),
     )
     return _assemble(arr, index, crs, frame, result, EVALUATE_COLUMNS, "evaluation")
 
@@ -370,4 +462,5 @@ __all__: Sequence[str] = [
     "TOLERANCE_COLUMNS",
     "INTERPOLATE_COLUMNS",
     "EVALUATE_COLUMNS",
+    "TIME_PROPERTIES",
 ]

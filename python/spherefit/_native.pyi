@@ -3,7 +3,9 @@
 The geometry functions return three lists, one item per input: the output geometry as WKB
 (``None``: the input passes through unchanged), the operation's properties object as JSON text
 (``properties.fit`` / ``interpolation`` / ``evaluation`` of the CLI), and that object's scalar
-fields as a dict. They release the GIL and run the features in parallel. Errors are
+fields as a dict (``fit_wkb`` adds, for ``topology="shared"``, the coverage's ``topology``
+member as JSON text). The GeoJSON options are keywords (``**options``: the query parameters of
+the service, ``None`` for not given), checked by the library's ``into_job``. They release the GIL and run the features in parallel. Errors are
 :class:`spherefit.SpherefitError`; a Ctrl-C during a call cancels the work and raises
 ``KeyboardInterrupt``.
 """
@@ -12,6 +14,9 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 _Scalar = Union[int, float, bool, str]
 _Columns = Tuple[List[Optional[bytes]], List[Optional[str]], List[Optional[Dict[str, _Scalar]]]]
+_FitColumns = Tuple[
+    List[Optional[bytes]], List[Optional[str]], List[Optional[Dict[str, _Scalar]]], Optional[str]
+]
 
 __version__: str
 __all__ = [
@@ -27,40 +32,25 @@ __all__ = [
 def fit_wkb(
     wkbs: Sequence[Optional[bytes]],
     *,
-    tolerance_m: Optional[float] = None,
-    control_points: Optional[int] = None,
-    degree: int = 3,
-    knots: str = "adaptive",
-    iterations: int = 30,
-    parameterization: str = "chord",
-    solver: str = "gauss-newton",
-    parameter_correction: bool = True,
-    samples: Optional[int] = None,
-    spacing_m: Optional[float] = None,
-    precision: int = 7,
+    properties: Optional[Sequence[Optional[str]]] = None,
     max_samples: int = 100_000,
     max_control_points: int = 10_000,
     max_iterations: int = 1_000,
-) -> _Columns: ...
+    **options: Union[int, float, bool, str, None],
+) -> _FitColumns: ...
 def interpolate_wkb(
     wkbs: Sequence[Optional[bytes]],
     *,
-    beta1: float = 1.0,
-    beta2: float = 0.0,
-    samples: Optional[int] = None,
-    spacing_m: Optional[float] = None,
-    precision: int = 7,
     max_samples: int = 100_000,
+    **options: Union[int, float, bool, str, None],
 ) -> _Columns: ...
 def evaluate_json(
     docs: Sequence[Optional[str]],
     key: str = "fit",
     *,
-    samples: Optional[int] = None,
-    spacing_m: Optional[float] = None,
-    precision: int = 7,
     max_samples: int = 100_000,
     max_control_points: int = 10_000,
+    **options: Union[int, float, bool, str, None],
 ) -> _Columns: ...
 def sphere_fit(
     data: bytes,

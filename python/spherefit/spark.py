@@ -25,7 +25,8 @@ def batches(
     cols = _earth.output_columns(operation, options.get("tolerance_m"))
     for batch in batches:
         wkbs = batch.column(geometry).to_pylist()
-        out_wkbs, infos, scalars = native(wkbs, **options)
+        # fit_wkb adds a fourth item (the coverage's arcs with topology="shared").
+        out_wkbs, infos, scalars = native(wkbs, **options)[:3]
         names, arrays = [], []
         for name in batch.schema.names:
             if name in cols:

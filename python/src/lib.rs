@@ -10,16 +10,17 @@
 mod wkb_io;
 
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict};
+use pyo3::types::{PyBool, PyBytes, PyDict};
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use spherefit::document::tolerance_document;
 use spherefit::document::{
     curve_from_json, pointer_for, FitDocument, InterpolationDocument, SamplesDocument,
 };
+use spherefit::earth::topology::fit_coverage;
 use spherefit::earth::{
-    process_feature, process_geometry, EarthError, InterpolateSettings, Job, Limits, Operation,
-    OutputOptions, Problem, Sampling,
+    into_job, process_feature, process_geometry, Document, EarthError, Job, Limits, OperationKind,
+    Problem, RawOptions, Topology,
 };
 use spherefit::sphere::cancel::Cancel;
 use spherefit::sphere::curve::even_parameters;
@@ -29,11 +30,9 @@ use spherefit::sphere::{
     ToleranceOptions,
 };
 
-// The literal defaults in the `#[pyo3(signature)]`s (literals, so that Python's signatures and
-// the stubs show them) are the library's: for `fit_wkb` those of `POST /v1/fit` and
-// `spherefit fit` (`FitOptions::faithful`, checked in the tests below).
-const _: () = assert!(spherefit::sphere::fit::DEFAULT_ITERATIONS == 30);
-const _: () = assert!(spherefit::earth::DEFAULT_PRECISION == 7);
+// The GeoJSON functions take their options as keywords (`**options`) and hand them to
+// `spherefit::earth::into_job`, which holds every default and rule; the literal limits in the
+// signatures are the library's (checked in the tests below).
 
 /// An error for Python: `spherefit.SpherefitError` (a `ValueError`) with the feature index,
 /// the pointer and the problem's slug as attributes.
@@ -92,18 +91,53 @@ where
         .map_err(|e| Failure::option(format!("{option}: {e}")))
 }
 
-/// The output options and limits shared by the three GeoJSON operations, as the service reads
-/// its query (`samples` and `spacing_m` together: at most that far apart and at least that many).
-fn output(samples: Option<usize>, spacing_m: Option<f64>, precision: u32) -> OutputOptions {
-    OutputOptions {
-        sampling: Sampling::from_samples_and_spacing(samples, spacing_m),
-        precision,
+/// The keywords of a GeoJSON function as [`RawOptions`]: each value (`None`: not given) is
+/// written as a query parameter's text (`true`, `12`, `0.5`, `adaptive`) and read by
+/// [`RawOptions::set`], so a keyword means here what its query parameter means to the service.
+fn raw_options(options: Option<&Bound<'_, PyDict>>) -> Result<RawOptions, Failure> {
+    let mut raw = RawOptions::default();
+    let Some(options) = options else {
+        return Ok(raw);
+    };
+    for (k, v) in options.iter() {
+        let name: String = k
+            .extract()
+            .map_err(|_| Failure::option("options: keyword names are strings"))?;
+        if v.is_none() {
+            continue;
+        }
+        let text = if v.is_instance_of::<PyBool>() {
+            v.extract::<bool>().map(|b| b.to_string()).ok()
+        } else if let Ok(i) = v.extract::<i64>() {
+            Some(i.to_string())
+        } else if let Ok(f) = v.extract::<f64>() {
+            Some(f.to_string())
+        } else {
+            v.extract::<String>().ok()
+        };
+        let text = text.ok_or_else(|| {
+            Failure::option(format!(
+                "{name}: expected a number, a string or a bool, got {}",
+                v.get_type()
+                    .name()
+                    .map_or("another type".into(), |n| n.to_string())
+            ))
+        })?;
+        raw.set(&name, &text)
+            .map_err(|e| Failure::option(format!("{name}: {e}")))?;
     }
+    Ok(raw)
 }
 
-fn validated(job: Job) -> Result<Job, Failure> {
-    job.validate().map_err(option_failure)?;
-    Ok(job)
+/// The job of `kind` from its keywords, checked by [`into_job`].
+fn job_of(
+    kind: OperationKind,
+    options: Option<&Bound<'_, PyDict>>,
+    limits: Limits,
+) -> Result<Job, Failure> {
+    let raw = raw_options(options)?;
+    let job = into_job(raw, kind, &limits).map_err(option_failure)?;
+    Ok(job.with_cancel(Cancel::new()))
 }
 
 /// An option the Earth layer refused, a count past its limit saying so.
@@ -115,9 +149,15 @@ fn option_failure(e: EarthError) -> Failure {
             } else {
                 ""
             };
-            Failure::option(format!("{option}: {message}{limit}"))
+            Failure {
+                problem: e.problem.slug(),
+                ..Failure::option(format!("{option}: {message}{limit}"))
+            }
         }
-        None => Failure::option(e.problem.to_string()),
+        None => Failure {
+            problem: e.problem.slug(),
+            ..Failure::option(e.problem.to_string())
+        },
     }
 }
 
@@ -244,159 +284,262 @@ fn scalar_fields<'py>(py: Python<'py>, info: &Value) -> PyResult<Bound<'py, PyDi
     Ok(d)
 }
 
-/// Fits (or interpolates) one WKB geometry with `job`.
-fn one_geometry(index: usize, wkb: &[u8], job: &Job, key: &str) -> Result<Outcome, Failure> {
-    let geometry = match wkb_io::read(wkb) {
-        Ok(wkb_io::Input::Curves(g)) => g,
-        Ok(wkb_io::Input::PassThrough) => return Ok(None),
+/// A fit's columns and, for `topology="shared"`, the coverage's `topology` member (the
+/// dataset report and every arc's spline) as JSON text.
+type FitColumns = (
+    Vec<Option<Py<PyBytes>>>,
+    Vec<Option<String>>,
+    Vec<Option<Py<PyDict>>>,
+    Option<String>,
+);
+
+/// One input row: its WKB and, when the row carries properties (the times of a track), those
+/// as a JSON object's text.
+type Row = (Vec<u8>, Option<String>);
+
+/// A row's properties, parsed: a JSON object, or `null` when there are none.
+fn row_properties(index: usize, props: Option<&str>) -> Result<Value, Failure> {
+    let Some(text) = props else {
+        return Ok(Value::Null);
+    };
+    match serde_json::from_str::<Value>(text) {
+        Ok(v @ Value::Object(_)) => Ok(v),
+        _ => Err(feature_failure(
+            index,
+            "/properties",
+            "invalid-option",
+            "the row's properties are not a JSON object".into(),
+        )),
+    }
+}
+
+/// The geometry of a WKB row as GeoJSON, `None` for one that passes through.
+fn row_geometry(index: usize, wkb: &[u8]) -> Result<Option<Value>, Failure> {
+    match wkb_io::read(wkb) {
+        Ok(wkb_io::Input::Curves(g)) => Ok(Some(g)),
+        Ok(wkb_io::Input::PassThrough) => Ok(None),
         Err(p) => {
             let slug = if p.pointer.is_empty() {
                 "invalid-wkb"
             } else {
                 "invalid-coordinate"
             };
-            return Err(feature_failure(index, &p.pointer, slug, p.message));
+            Err(feature_failure(index, &p.pointer, slug, p.message))
         }
+    }
+}
+
+/// Fits (or interpolates) one row with `job`: its geometry alone, or as a Feature with its
+/// properties (errors then point into the geometry as without them, or into `/properties`).
+fn one_row(index: usize, row: &Row, job: &Job, key: &str) -> Result<Outcome, Failure> {
+    let Some(geometry) = row_geometry(index, &row.0)? else {
+        return Ok(None);
     };
-    let done = process_geometry(&geometry, "", job).map_err(|e| earth_error(index, e))?;
+    let properties = row_properties(index, row.1.as_deref())?;
+    let done = if properties.is_null() {
+        process_geometry(&geometry, "", job)
+    } else {
+        let feature = json!({"type": "Feature", "properties": properties, "geometry": geometry});
+        process_feature(&feature, "", job).map_err(|e| {
+            let pointer = match e.pointer.strip_prefix("/geometry") {
+                Some(rest) => rest.to_string(),
+                None => e.pointer.clone(),
+            };
+            EarthError { pointer, ..e }
+        })
+    }
+    .map_err(|e| earth_error(index, e))?;
     if done.stats.curves == 0 {
         return Ok(None);
     }
     outcome(index, done.feature.into_value(), key)
 }
 
-/// Fits spherical B-splines to WKB lines and rings, as `spherefit fit` does. See
-/// `spherefit.fit` for the options.
+/// The rows, each with its properties when given (one per row).
+fn rows_with(
+    wkbs: Vec<Option<Vec<u8>>>,
+    properties: Option<Vec<Option<String>>>,
+) -> Result<Vec<Option<Row>>, Failure> {
+    let n = wkbs.len();
+    let props = match properties {
+        Some(p) if p.len() != n => {
+            return Err(Failure::option(format!(
+                "properties: {} items for {n} geometries",
+                p.len()
+            )))
+        }
+        Some(p) => p,
+        None => vec![None; n],
+    };
+    Ok(wkbs
+        .into_iter()
+        .zip(props)
+        .map(|(w, p)| w.map(|w| (w, p)))
+        .collect())
+}
+
+/// Fits spherical B-splines to WKB lines and rings, as `spherefit fit` does: per row, or with
+/// `topology="shared"` the polygons of all rows as one coverage. The options are the keywords
+/// of `spherefit.fit` (query parameters of `POST /v1/fit`), checked by the library.
 #[pyfunction]
 #[pyo3(signature = (
-    wkbs, *, tolerance_m=None, control_points=None, degree=3, knots="adaptive",
-    iterations=30, parameterization="chord",
-    solver="gauss-newton", parameter_correction=true, samples=None, spacing_m=None, precision=7,
-    max_samples=100_000, max_control_points=10_000, max_iterations=1_000
+    wkbs, *, properties=None, max_samples=100_000, max_control_points=10_000,
+    max_iterations=1_000, **options
 ))]
-#[allow(clippy::too_many_arguments)]
 fn fit_wkb(
     py: Python<'_>,
     wkbs: Vec<Option<Vec<u8>>>,
-    tolerance_m: Option<f64>,
-    control_points: Option<usize>,
-    degree: usize,
-    knots: &str,
-    iterations: usize,
-    parameterization: &str,
-    solver: &str,
-    parameter_correction: bool,
-    samples: Option<usize>,
-    spacing_m: Option<f64>,
-    precision: u32,
+    properties: Option<Vec<Option<String>>>,
     max_samples: usize,
     max_control_points: usize,
     max_iterations: usize,
-) -> PyResult<Columns> {
-    let job = (|| {
-        let options = FitOptions {
-            parameter_correction,
-            control_points,
-            degree,
-            knots: parse::<KnotPlacement>("knots", knots)?,
-            iterations,
-            parameterization: parse::<Parameterization>("parameterization", parameterization)?,
-            solver: parse::<Solver>("solver", solver)?,
-            ..FitOptions::default()
-        };
-        let operation = match tolerance_m {
-            Some(tolerance_m) => Operation::FitToTolerance {
-                options,
-                tolerance_m,
-            },
-            None => Operation::Fit(options),
-        };
-        validated(Job {
-            operation,
-            output: output(samples, spacing_m, precision),
-            limits: Limits {
-                max_control_points,
-                max_samples,
-                max_iterations,
-            },
-            cancel: Cancel::new(),
-            time: Default::default(),
-        })
-    })()
-    .map_err(|f| f.into_py(py))?;
-    run_all(py, wkbs, &job.cancel, |i, w| {
-        one_geometry(i, w, &job, "fit")
-    })
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<FitColumns> {
+    let limits = Limits {
+        max_control_points,
+        max_samples,
+        max_iterations,
+    };
+    let (job, rows) = job_of(OperationKind::Fit, options, limits)
+        .and_then(|job| Ok((job, rows_with(wkbs, properties)?)))
+        .map_err(|f| f.into_py(py))?;
+    match job.topology {
+        Topology::PerFeature => {
+            let (g, i, s) = run_all(py, rows, &job.cancel, |i, r| one_row(i, r, &job, "fit"))?;
+            Ok((g, i, s, None))
+        }
+        Topology::Shared => coverage(py, rows, &job),
+    }
 }
 
-/// Interpolates WKB lines and rings with spherical Beta-splines, as `spherefit interpolate`.
+/// `/features/3/geometry/coordinates/1` -> (3, `/coordinates/1`).
+fn feature_pointer(pointer: &str) -> (Option<usize>, String) {
+    let Some(rest) = pointer.strip_prefix("/features/") else {
+        return (None, pointer.to_string());
+    };
+    let (index, tail) = rest.split_once('/').unwrap_or((rest, ""));
+    let tail = format!("/{tail}");
+    let tail = tail.strip_prefix("/geometry").unwrap_or(&tail).to_string();
+    (
+        index.parse().ok(),
+        if tail == "/" { String::new() } else { tail },
+    )
+}
+
+/// The rows fitted as one coverage ([`fit_coverage`]): polygon rows rebuilt from shared arcs,
+/// other rows fitted on their own.
+fn coverage(py: Python<'_>, rows: Vec<Option<Row>>, job: &Job) -> PyResult<FitColumns> {
+    let run = || -> Result<(Vec<Outcome>, String), Failure> {
+        let mut features = Vec::with_capacity(rows.len());
+        for (i, row) in rows.iter().enumerate() {
+            let (geometry, properties) = match row {
+                None => (Value::Null, Value::Null),
+                Some(r) => (
+                    row_geometry(i, &r.0)?.unwrap_or(Value::Null),
+                    row_properties(i, r.1.as_deref())?,
+                ),
+            };
+            features
+                .push(json!({"type": "Feature", "properties": properties, "geometry": geometry}));
+        }
+        let fail = |e: EarthError| {
+            let (index, pointer) = feature_pointer(&e.pointer);
+            match index {
+                Some(i) => earth_error(i, EarthError { pointer, ..e }),
+                None => Failure {
+                    problem: e.problem.slug(),
+                    ..Failure::option(e.to_string())
+                },
+            }
+        };
+        let doc = Document::parse(
+            json!({"type": "FeatureCollection", "features": features}),
+            false,
+        )
+        .map_err(fail)?;
+        let coverage = fit_coverage(doc, job).map_err(fail)?;
+        let out_features = coverage.features.clone();
+        let collection = coverage.into_feature_collection();
+        let mut outcomes = Vec::with_capacity(out_features.len());
+        for (i, f) in out_features.into_iter().enumerate() {
+            let has_fit = f["properties"].get("fit").is_some();
+            outcomes.push(if has_fit && !f["geometry"].is_null() {
+                outcome(i, f, "fit")?
+            } else {
+                None
+            });
+        }
+        Ok((outcomes, collection["topology"].to_string()))
+    };
+    let (outcomes, topology) = py.detach(run).map_err(|f| f.into_py(py))?;
+    let mut geoms = Vec::with_capacity(outcomes.len());
+    let mut infos = Vec::with_capacity(outcomes.len());
+    let mut scalars = Vec::with_capacity(outcomes.len());
+    for o in outcomes {
+        match o {
+            None => {
+                geoms.push(None);
+                infos.push(None);
+                scalars.push(None);
+            }
+            Some((wkb, info)) => {
+                geoms.push(Some(PyBytes::new(py, &wkb).unbind()));
+                infos.push(Some(info.to_string()));
+                scalars.push(Some(scalar_fields(py, &info)?.unbind()));
+            }
+        }
+    }
+    Ok((geoms, infos, scalars, Some(topology)))
+}
+
+/// Interpolates WKB lines and rings with spherical Beta-splines, as `spherefit interpolate`;
+/// the options are the keywords of `spherefit.interpolate`, checked by the library.
 #[pyfunction]
-#[pyo3(signature = (
-    wkbs, *, beta1=1.0, beta2=0.0, samples=None, spacing_m=None,
-    precision=7, max_samples=100_000
-))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (wkbs, *, max_samples=100_000, **options))]
 fn interpolate_wkb(
     py: Python<'_>,
     wkbs: Vec<Option<Vec<u8>>>,
-    beta1: f64,
-    beta2: f64,
-    samples: Option<usize>,
-    spacing_m: Option<f64>,
-    precision: u32,
     max_samples: usize,
+    options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Columns> {
-    let job = validated(Job {
-        operation: Operation::Interpolate(InterpolateSettings { beta1, beta2 }),
-        output: output(samples, spacing_m, precision),
-        limits: Limits {
-            max_samples,
-            ..Limits::default()
-        },
-        cancel: Cancel::new(),
-        time: Default::default(),
-    })
-    .map_err(|f| f.into_py(py))?;
-    run_all(py, wkbs, &job.cancel, |i, w| {
-        one_geometry(i, w, &job, "interpolation")
+    let limits = Limits {
+        max_samples,
+        ..Limits::default()
+    };
+    let (job, rows) = job_of(OperationKind::Interpolate, options, limits)
+        .and_then(|job| Ok((job, rows_with(wkbs, None)?)))
+        .map_err(|f| f.into_py(py))?;
+    run_all(py, rows, &job.cancel, |i, r| {
+        one_row(i, r, &job, "interpolation")
     })
 }
 
 /// Samples stored curves (the JSON of `properties.fit` or `properties.interpolation`, as
-/// `spherefit.fit` writes it) into dense geometry, as `spherefit evaluate`.
+/// `spherefit.fit` writes it) into dense geometry, or at times (`at`), as `spherefit evaluate`;
+/// the options are the keywords of `spherefit.evaluate`, checked by the library.
 #[pyfunction]
 #[pyo3(signature = (
-    docs, key="fit", *, samples=None, spacing_m=None,
-    precision=7, max_samples=100_000, max_control_points=10_000
+    docs, key="fit", *, max_samples=100_000, max_control_points=10_000, **options
 ))]
-#[allow(clippy::too_many_arguments)]
 fn evaluate_json(
     py: Python<'_>,
     docs: Vec<Option<String>>,
     key: &str,
-    samples: Option<usize>,
-    spacing_m: Option<f64>,
-    precision: u32,
     max_samples: usize,
     max_control_points: usize,
+    options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Columns> {
     if key != "fit" && key != "interpolation" {
         return Err(
             Failure::option(format!("key: {key:?}: use \"fit\" or \"interpolation\"")).into_py(py),
         );
     }
-    let job = validated(Job {
-        operation: Operation::Evaluate,
-        output: output(samples, spacing_m, precision),
-        limits: Limits {
-            max_samples,
-            max_control_points,
-            ..Limits::default()
-        },
-        cancel: Cancel::new(),
-        time: Default::default(),
-    })
-    .map_err(|f| f.into_py(py))?;
+    let limits = Limits {
+        max_samples,
+        max_control_points,
+        ..Limits::default()
+    };
+    let job = job_of(OperationKind::Evaluate, options, limits).map_err(|f| f.into_py(py))?;
     let prefix = format!("/properties/{key}");
     run_all(py, docs, &job.cancel, |i, text| {
         let doc: Value = serde_json::from_str(text).map_err(|e| {

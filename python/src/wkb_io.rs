@@ -137,7 +137,7 @@ fn line(ls: &impl LineStringTrait<T = f64>, dims: usize, base: &str) -> Result<V
 }
 
 /// Writes an output geometry of the library (LineString, MultiLineString, Polygon or
-/// MultiPolygon with `[lon, lat]` or `[lon, lat, alt]` positions) as ISO WKB, little-endian.
+/// MultiPolygon, or the MultiPoint of an evaluation at times, with `[lon, lat]` or `[lon, lat, alt]` positions) as ISO WKB, little-endian.
 ///
 /// # Errors
 /// A message when the value is not such a geometry (a bug in the caller, reported, not a panic).
@@ -155,6 +155,7 @@ pub fn write(geometry: &Value) -> Result<Vec<u8>, String> {
     }
     let mut out = Vec::new();
     let code = match kind {
+        "MultiPoint" => 4,
         "LineString" => 2,
         "Polygon" => 3,
         "MultiLineString" => 5,
@@ -182,10 +183,28 @@ fn count(out: &mut Vec<u8>, n: usize) -> Result<(), String> {
     Ok(())
 }
 
-/// A geometry of WKB type `code` (2, 3, 5 or 6) with its GeoJSON coordinates.
+/// A geometry of WKB type `code` (1 to 6) with its GeoJSON coordinates.
 fn write_node(out: &mut Vec<u8>, code: u32, coords: &Value, dims: usize) -> Result<(), String> {
     header(out, code, dims);
     match code {
+        1 => {
+            let p = array(coords)?;
+            if p.len() != dims {
+                return Err("output positions of mixed dimensions".into());
+            }
+            for x in p {
+                let x = x
+                    .as_f64()
+                    .ok_or("an output coordinate that is not a number")?;
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+            Ok(())
+        }
+        4 => {
+            let points = array(coords)?;
+            count(out, points.len())?;
+            points.iter().try_for_each(|p| write_node(out, 1, p, dims))
+        }
         2 => positions(out, coords, dims),
         3 => {
             let rings = array(coords)?;

@@ -140,8 +140,13 @@ def test_fit_bad_inputs():
     assert e.value.index is None and e.value.problem == "invalid-option"
     with pytest.raises(spherefit.SpherefitError, match="^tolerance_m: -1"):
         spherefit.fit([line], tolerance_m=-1)
-    with pytest.raises(spherefit.SpherefitError, match="leave control_points out"):
+    with pytest.raises(spherefit.SpherefitError, match="^tolerance_m: tolerance_m excludes control_points") as e:
         spherefit.fit([line], tolerance_m=5, control_points=4)
+    assert e.value.problem == "conflicting-options"
+    with pytest.raises(spherefit.SpherefitError, match="^topology: .* give tolerance_m too"):
+        spherefit.fit([line], topology="shared")
+    with pytest.raises(spherefit.SpherefitError, match="^time_property: time_property excludes parameterization chord"):
+        spherefit.fit([line], parameterization="chord", time_property="t")
     with pytest.raises(spherefit.SpherefitError, match="^knots: "):
         spherefit.fit([line], knots="nope")
     with pytest.raises(spherefit.SpherefitError, match="^samples: 1 samples"):
@@ -155,6 +160,86 @@ def test_fit_bad_inputs():
         spherefit.fit(projected)
     with pytest.raises(spherefit.SpherefitError, match="M values"):
         spherefit.fit([shapely.from_wkt("LINESTRING M (0 0 1, 1 1 2, 2 0 3, 3 1 4)")])
+
+
+def test_fit_shared_topology_equals_cli(tmp_path):
+    path = FIXTURES / "coverage_us_states.geojson"
+    cli = run_cli("fit", "-q", "--topology", "shared", "--tolerance-m", "5000", path)
+    gdf = frame(path)
+    out = spherefit.fit(gdf, topology="shared", tolerance_m=5000)
+    assert_equals_cli(out, cli["features"], "fit")
+    # The coverage's arcs come back with it, as the CLI's collection member.
+    assert out.attrs["topology"] == cli["topology"]
+    assert out.attrs["topology"]["shared_arcs"] > 0
+    assert len(out.attrs["topology"]["arcs"]) == out.attrs["topology"]["arc_count"]
+
+
+def test_fit_drop_small_rings_equals_cli_in_both_topologies():
+    path = FIXTURES / "small_rings.geojson"
+    # The fixture's third feature (a MultiPoint of mixed dimensions) has no WKB form.
+    gdf = frame(path).iloc[:2]
+    for topology in ["per-feature", "shared"]:
+        cli = run_cli(
+            "fit", "-q", "--tolerance-m", "1000", "--topology", topology, "--drop-small-rings", path
+        )
+        out = spherefit.fit(gdf, tolerance_m=1000, topology=topology, drop_small_rings=True)
+        features = cli["features"][:2]
+        if topology == "per-feature":
+            # Per row, pointers are into the row's geometry, as in every error of spherefit.fit;
+            # a coverage's are into the document the rows make, as its arcs are.
+            for i, f in enumerate(features):
+                for k in ("kept_rings", "dropped_rings"):
+                    prefix = f"/features/{i}/geometry"
+                    f["properties"]["fit"][k] = [p[len(prefix):] for p in f["properties"]["fit"][k]]
+        assert_equals_cli(out, features, "fit")
+        dropped = json.loads(out["fit"].iloc[1])["dropped_rings"]
+        expected = "/coordinates/1" if topology == "per-feature" else "/features/1/geometry/coordinates/1"
+        assert dropped == [expected], topology
+        kept = spherefit.fit(gdf, tolerance_m=1000, topology=topology)
+        assert "dropped_rings" not in json.loads(kept["fit"].iloc[1]), topology
+
+
+def timed_tracks():
+    """The fixture's tracks with usable times (unix seconds in ``timestamps_unix_s``)."""
+    doc = json.loads((FIXTURES / "gps_tracks_slovenia_gpxpy.geojson").read_text())
+    doc["features"] = [
+        f
+        for f in doc["features"]
+        if isinstance(f["properties"].get("timestamps_unix_s"), list)
+        and all(b > a for a, b in zip(f["properties"]["timestamps_unix_s"], f["properties"]["timestamps_unix_s"][1:]))
+    ]
+    assert len(doc["features"]) == 6
+    return doc
+
+
+def test_fit_in_time_and_evaluate_at_equal_cli(tmp_path):
+    doc = timed_tracks()
+    path = tmp_path / "timed.geojson"
+    path.write_text(json.dumps(doc))
+    cli = run_cli("fit", "-q", "--time-property", "timestamps_unix_s", "--tolerance-m", "10", path)
+    gdf = gpd.GeoDataFrame.from_features(doc["features"], crs="EPSG:4326")
+    out = spherefit.fit(gdf, time_property="timestamps_unix_s", tolerance_m=10)
+    assert_equals_cli(out, cli["features"], "fit")
+    assert json.loads(out["fit"].iloc[0])["parameterization"] == "time"
+    # Positions, speed and heading at times, as `spherefit evaluate --at`.
+    t0 = doc["features"][0]["properties"]["timestamps_unix_s"][0]
+    at = [t0 + 60, t0 + 120.5]
+    first_fit = tmp_path / "first.geojson"
+    first_fit.write_text(json.dumps({"type": "FeatureCollection", "features": cli["features"][:1]}))
+    cli_at = run_cli("evaluate", "-q", "--at", ",".join(str(t) for t in at), first_fit)
+    ev = spherefit.evaluate(out.iloc[:1], at=at)
+    first = cli_at["features"][0]
+    assert json.loads(ev["evaluation"].iloc[0]) == first["properties"]["evaluation"]
+    assert same_geometry(ev.geometry.iloc[0], shape(first["geometry"]))
+    assert ev.geometry.iloc[0].geom_type == "MultiPoint"
+    # spacing_s: a curve in time sampled every 30 s, as the CLI does.
+    fitted = tmp_path / "fitted.geojson"
+    fitted.write_text(json.dumps(cli))
+    cli_s = run_cli("evaluate", "-q", "--spacing-s", "30", fitted)
+    ev_s = spherefit.evaluate(out, spacing_s=30)
+    assert_equals_cli(ev_s, cli_s["features"], "evaluation")
+    with pytest.raises(spherefit.SpherefitError, match="^at: "):
+        spherefit.evaluate(out.iloc[:1], at="yesterday")
 
 
 # -- interpolate ------------------------------------------------------------------------------

@@ -21,9 +21,10 @@ mod topology;
 
 use super::Failure;
 use crate::earth::{
-    InterpolateSettings, Job, Limits, Operation, OutputOptions, Sampling, TimeOptions, TimeSource,
+    into_job, InterpolateSettings, Job, Limits, OperationKind, ParameterizationOption, RawOptions,
+    Topology,
 };
-use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
+use crate::sphere::{FitOptions, KnotPlacement, Solver};
 use clap::Args;
 use input::{Format, Input};
 use pipeline::{Fatal, Progress, Settings, Sink, Totals};
@@ -117,13 +118,13 @@ pub(crate) struct BatchArgs {
 #[derive(Debug, Args)]
 #[command(next_help_heading = "Output curves")]
 pub(crate) struct OutputArgs {
-    /// Output points per curve, evenly spaced in parameter, 2 to --max-samples (not with
-    /// --spacing-m) [default: automatic, dense enough that the polyline stays within 5 % of the
-    /// fit's max error of the curve and at least 5 cm]
-    #[arg(long, value_name = "N", conflicts_with = "spacing_m")]
+    /// Output points per curve, evenly spaced in parameter, 2 to --max-samples (with
+    /// --spacing-m: at least this many) [default: automatic, dense enough that the polyline
+    /// stays within 5 % of the fit's max error of the curve and at least 5 cm]
+    #[arg(long, value_name = "N")]
     samples: Option<usize>,
-    /// Distance between output points along the curve, in metres (not with --samples)
-    /// [default: none, automatic sampling as for --samples]
+    /// Distance between output points along the curve, in metres (with --samples: at most
+    /// this far apart) [default: none, automatic sampling as for --samples]
     #[arg(
         long,
         value_name = "METRES",
@@ -137,8 +138,7 @@ pub(crate) struct OutputArgs {
         long,
         value_name = "SECONDS",
         alias = "spacing_s",
-        allow_negative_numbers = true,
-        conflicts_with_all = ["samples", "spacing_m"]
+        allow_negative_numbers = true
     )]
     spacing_s: Option<f64>,
     /// Decimals of output degrees, 0 to 15, control points included (7 decimals is 1.1 cm or
@@ -176,7 +176,7 @@ pub(crate) struct FitOptionArgs {
     /// (position as a function of each position's time; with --tolerance-m the bound is the
     /// synchronized distance; implied by --time-property and --spacing-s) [default: chord]
     #[arg(long, value_name = "METHOD")]
-    parameterization: Option<ParameterizationArg>,
+    parameterization: Option<ParameterizationOption>,
     /// With --parameterization time: the feature property holding one time per position
     /// (RFC 3339 strings or unix seconds) [default: the first of coordTimes, times, timestamps
     /// present, else the 4th coordinate of each position]
@@ -197,37 +197,22 @@ pub(crate) struct FitOptionArgs {
         long,
         value_name = "METRES",
         alias = "tolerance_m",
-        allow_negative_numbers = true,
-        conflicts_with = "control_points"
+        allow_negative_numbers = true
     )]
     tolerance_m: Option<f64>,
+    /// A polygon ring that collapses under the fit (an islet or a sliver narrower than the
+    /// tolerance) is dropped and listed in properties.fit.dropped_rings, instead of kept as a
+    /// small valid ring (listed in kept_rings); a polygon whose exterior ring is dropped is
+    /// dropped with its holes, and a feature left with no polygon keeps its properties with an
+    /// empty MultiPolygon
+    #[arg(long, alias = "drop_small_rings", help_heading = "Fit")]
+    drop_small_rings: bool,
     /// Most control points per curve (the service's SPHEREFIT_MAX_CONTROL_POINTS)
     #[arg(long, value_name = "N", default_value_t = Limits::default().max_control_points, help_heading = "Limits")]
     max_control_points: usize,
     /// Most GLS-PIA iterations per fit (the service's SPHEREFIT_MAX_ITERATIONS)
     #[arg(long, value_name = "N", default_value_t = Limits::default().max_iterations, help_heading = "Limits")]
     max_iterations: usize,
-}
-
-/// `--parameterization`: one of the math core's, or time.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum ParameterizationArg {
-    /// Position as a function of time.
-    Time,
-    /// Chord, centripetal or uniform.
-    Shape(Parameterization),
-}
-
-impl std::str::FromStr for ParameterizationArg {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        if s == "time" {
-            return Ok(ParameterizationArg::Time);
-        }
-        s.parse::<Parameterization>()
-            .map(ParameterizationArg::Shape)
-            .map_err(|_| format!("{s:?}: use chord, centripetal, uniform or time"))
-    }
 }
 
 /// Beta-spline shape (query parameters of `/v1/interpolate`).
@@ -304,73 +289,31 @@ pub(crate) struct EvaluateArgs {
     batch: BatchArgs,
 }
 
-/// `spherefit fit`.
+/// `spherefit fit`: per feature, or (`--topology shared`) the input as one coverage.
 pub(crate) fn fit(a: FitArgs) -> Result<(), Failure> {
-    if a.topology.topology == crate::earth::topology::Topology::Shared {
-        return topology::fit(a);
+    let job = fit_job(&a)?;
+    match job.topology {
+        Topology::Shared => topology::fit(job, &a.batch),
+        Topology::PerFeature => run("fit", job, a.batch),
     }
-    run(
-        "fit",
-        a.fit.operation(),
-        a.fit.limits(),
-        a.fit.time(a.output.spacing_s.is_some())?,
-        &a.output,
-        a.batch,
-    )
 }
 
 impl FitOptionArgs {
-    /// The fit, from the default options as the service builds it: to a tolerance when
-    /// `--tolerance-m` is given.
-    fn operation(&self) -> Operation {
-        let options = FitOptions {
+    /// The options as given (those with defaults always given).
+    fn raw(&self) -> RawOptions {
+        RawOptions {
             control_points: self.control_points,
-            degree: self.degree,
-            knots: self.knots,
-            iterations: self.iterations,
-            parameterization: match self.parameterization {
-                Some(ParameterizationArg::Shape(p)) => p,
-                _ => FitOptions::faithful().parameterization,
-            },
-            solver: self.solver,
-            parameter_correction: self.parameter_correction,
-            ..FitOptions::faithful()
-        };
-        match self.tolerance_m {
-            Some(tolerance_m) => Operation::FitToTolerance {
-                options,
-                tolerance_m,
-            },
-            None => Operation::Fit(options),
+            degree: Some(self.degree),
+            knots: Some(self.knots),
+            iterations: Some(self.iterations),
+            parameterization: self.parameterization,
+            solver: Some(self.solver),
+            parameter_correction: Some(self.parameter_correction),
+            tolerance_m: self.tolerance_m,
+            time_property: self.time_property.clone(),
+            drop_small_rings: self.drop_small_rings.then_some(true),
+            ..RawOptions::default()
         }
-    }
-
-    /// Fitting in time (`--parameterization time`, implied by `--time-property` and
-    /// `--spacing-s`), as the service reads its query.
-    fn time(&self, spacing_s: bool) -> Result<TimeOptions, Failure> {
-        let implied = if self.time_property.is_some() {
-            Some("--time-property")
-        } else if spacing_s {
-            Some("--spacing-s")
-        } else {
-            None
-        };
-        let in_time = match (self.parameterization, implied) {
-            (Some(ParameterizationArg::Time), _) | (None, Some(_)) => true,
-            (Some(ParameterizationArg::Shape(_)), Some(k)) => {
-                return Err(Failure::input(format!(
-                    "{k} is for a fit in time: it excludes --parameterization other than time"
-                )))
-            }
-            _ => false,
-        };
-        Ok(TimeOptions {
-            fit_in_time: in_time.then(|| match &self.time_property {
-                Some(n) => TimeSource::Property(n.clone()),
-                None => TimeSource::Auto,
-            }),
-            at_unix_s: None,
-        })
     }
 
     /// The limits set by the fit's flags (`--max-samples` is an output option).
@@ -383,75 +326,75 @@ impl FitOptionArgs {
     }
 }
 
+impl OutputArgs {
+    /// Adds the output options to `raw`.
+    fn fill(&self, raw: &mut RawOptions) {
+        raw.samples = self.samples;
+        raw.spacing_m = self.spacing_m;
+        raw.spacing_s = self.spacing_s;
+        raw.precision = Some(self.precision as usize);
+    }
+
+    /// The default limits with `--max-samples`.
+    fn limits(&self) -> Limits {
+        Limits {
+            max_samples: self.max_samples,
+            ..Limits::default()
+        }
+    }
+}
+
+/// The job of `spherefit fit`.
+fn fit_job(a: &FitArgs) -> Result<Job, Failure> {
+    let mut raw = a.fit.raw();
+    a.output.fill(&mut raw);
+    raw.topology = Some(a.topology.topology);
+    raw.format = a.batch.output_format.topology_format();
+    let limits = Limits {
+        max_samples: a.output.max_samples,
+        ..a.fit.limits()
+    };
+    job(raw, OperationKind::Fit, &limits)
+}
+
 /// `spherefit interpolate`.
 pub(crate) fn interpolate(a: InterpolateArgs) -> Result<(), Failure> {
-    let settings = InterpolateSettings {
-        beta1: a.shape.beta1,
-        beta2: a.shape.beta2,
+    let job = interpolate_job(&a)?;
+    run("interpolate", job, a.batch)
+}
+
+/// The job of `spherefit interpolate`.
+fn interpolate_job(a: &InterpolateArgs) -> Result<Job, Failure> {
+    let mut raw = RawOptions {
+        beta1: Some(a.shape.beta1),
+        beta2: Some(a.shape.beta2),
+        format: a.batch.output_format.topology_format(),
+        ..RawOptions::default()
     };
-    run(
-        "interpolate",
-        Operation::Interpolate(settings),
-        Limits::default(),
-        TimeOptions::default(),
-        &a.output,
-        a.batch,
-    )
+    a.output.fill(&mut raw);
+    job(raw, OperationKind::Interpolate, &a.output.limits())
 }
 
 /// `spherefit evaluate`.
 pub(crate) fn evaluate(a: EvaluateArgs) -> Result<(), Failure> {
-    let time = evaluate_time(&a)?;
-    run(
-        "evaluate",
-        Operation::Evaluate,
-        Limits::default(),
-        time,
-        &a.output,
-        a.batch,
-    )
+    let job = evaluate_job(&a)?;
+    run("evaluate", job, a.batch)
 }
 
-/// `--at`, read as the service reads `at=`.
-fn evaluate_time(a: &EvaluateArgs) -> Result<TimeOptions, Failure> {
-    let at_unix_s =
-        a.at.as_deref()
-            .map(crate::earth::time::parse_time_list)
-            .transpose()
-            .map_err(|m| Failure::input(format!("--at: {m}")))?;
-    Ok(TimeOptions {
-        fit_in_time: None,
-        at_unix_s,
-    })
+/// The job of `spherefit evaluate`.
+fn evaluate_job(a: &EvaluateArgs) -> Result<Job, Failure> {
+    let mut raw = RawOptions {
+        at: a.at.clone(),
+        format: a.batch.output_format.topology_format(),
+        ..RawOptions::default()
+    };
+    a.output.fill(&mut raw);
+    job(raw, OperationKind::Evaluate, &a.output.limits())
 }
 
-/// The job of a command, checked as the service checks its query.
-fn job(
-    operation: Operation,
-    limits: Limits,
-    time: TimeOptions,
-    output: &OutputArgs,
-) -> Result<Job, Failure> {
-    // clap lets --spacing-s go with neither of the others, --samples not with --spacing-m.
-    let sampling = match output.spacing_s {
-        Some(s) => Sampling::SpacingS(s),
-        None => Sampling::from_samples_and_spacing(output.samples, output.spacing_m),
-    };
-    let job = Job {
-        operation,
-        output: OutputOptions {
-            sampling,
-            precision: output.precision,
-        },
-        limits: Limits {
-            max_samples: output.max_samples,
-            ..limits
-        },
-        cancel: Default::default(),
-        time,
-    };
-    job.validate().map_err(Failure::option)?;
-    Ok(job)
+/// The job of a command: its options checked by [`into_job`], as the service's query is.
+fn job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result<Job, Failure> {
+    into_job(raw, kind, limits).map_err(Failure::option)
 }
 
 /// `--threads`: the size of the global worker pool (without it: RAYON_NUM_THREADS if set, else
@@ -531,18 +474,10 @@ fn stderr_line(text: &str) {
     let _ = writeln!(io::stderr(), "{text}");
 }
 
-fn run(
-    command: &'static str,
-    operation: Operation,
-    limits: Limits,
-    time: TimeOptions,
-    output: &OutputArgs,
-    batch: BatchArgs,
-) -> Result<(), Failure> {
+fn run(command: &'static str, job: Job, batch: BatchArgs) -> Result<(), Failure> {
     let started = Instant::now();
-    let allow_spline = matches!(operation, Operation::Evaluate);
-    let job = job(operation, limits, time, output)?;
-    topology::check_formats(&batch)?;
+    let allow_spline = matches!(job.operation, crate::earth::Operation::Evaluate);
+    topology::check_input_format(&batch)?;
     set_threads(batch.threads)?;
     let inputs = inputs(&batch.inputs)?;
     let out_path = batch.output.as_ref().filter(|p| p.as_os_str() != "-");
@@ -828,7 +763,8 @@ impl Progress for TerminalProgress {
 mod tests {
     use super::*;
     use crate::earth::FeatureStats;
-    use crate::service::query::{geo_job, GeoEndpoint};
+    use crate::earth::{Operation, Sampling, TimeSource};
+    use crate::sphere::{KnotPlacement, Parameterization, Solver};
     use clap::Parser;
 
     /// The batch commands alone, to parse their arguments.
@@ -839,55 +775,36 @@ mod tests {
         Evaluate(EvaluateArgs),
     }
 
+    /// The job a command line makes (as `fit`, `interpolate` and `evaluate` make it).
     fn cli_job(args: &[&str]) -> Result<Job, Failure> {
         let cmd = Cmd::try_parse_from(std::iter::once("x").chain(args.iter().copied()))
             .map_err(Failure::input)?;
         match cmd {
-            Cmd::Fit(a) => job(
-                a.fit.operation(),
-                a.fit.limits(),
-                a.fit.time(a.output.spacing_s.is_some())?,
-                &a.output,
-            ),
-            Cmd::Interpolate(a) => job(
-                Operation::Interpolate(InterpolateSettings {
-                    beta1: a.shape.beta1,
-                    beta2: a.shape.beta2,
-                }),
-                Limits::default(),
-                TimeOptions::default(),
-                &a.output,
-            ),
-            Cmd::Evaluate(a) => job(
-                Operation::Evaluate,
-                Limits::default(),
-                evaluate_time(&a)?,
-                &a.output,
-            ),
+            Cmd::Fit(a) => fit_job(&a),
+            Cmd::Interpolate(a) => interpolate_job(&a),
+            Cmd::Evaluate(a) => evaluate_job(&a),
         }
     }
 
-    fn service_job(endpoint: GeoEndpoint, q: &[(&str, &str)]) -> Job {
-        let pairs = q
-            .iter()
-            .map(|(a, b)| (a.to_string(), b.to_string()))
-            .collect();
-        geo_job(pairs, endpoint, &Limits::default()).unwrap()
+    fn library_job(kind: OperationKind, raw: RawOptions) -> Job {
+        into_job(raw, kind, &Limits::default()).unwrap()
     }
 
+    /// Each flag lands in its field of the raw options (the rules are `into_job`'s, tested
+    /// there); the defaults of the flags are the library's.
     #[test]
-    fn defaults_and_options_are_the_services() {
+    fn flags_fill_the_raw_options_and_defaults_are_the_librarys() {
         assert_eq!(
             cli_job(&["fit"]).unwrap(),
-            service_job(GeoEndpoint::Fit, &[])
+            library_job(OperationKind::Fit, RawOptions::default())
         );
         assert_eq!(
             cli_job(&["interpolate"]).unwrap(),
-            service_job(GeoEndpoint::Interpolate, &[])
+            library_job(OperationKind::Interpolate, RawOptions::default())
         );
         assert_eq!(
             cli_job(&["evaluate"]).unwrap(),
-            service_job(GeoEndpoint::Evaluate, &[])
+            library_job(OperationKind::Evaluate, RawOptions::default())
         );
         let cli = cli_job(&[
             "fit",
@@ -903,83 +820,71 @@ mod tests {
             "centripetal",
             "--spacing-m",
             "250",
+            "--samples",
+            "20",
             "--precision",
             "5",
             "--solver",
-            "gauss-newton",
+            "gls-pia",
+            "--parameter-correction",
+            "false",
         ])
         .unwrap();
-        let service = service_job(
-            GeoEndpoint::Fit,
-            &[
-                ("control_points", "12"),
-                ("degree", "2"),
-                ("knots", "uniform"),
-                ("iterations", "50"),
-                ("parameterization", "centripetal"),
-                ("spacing_m", "250"),
-                ("precision", "5"),
-                ("solver", "gauss-newton"),
-            ],
+        let library = library_job(
+            OperationKind::Fit,
+            RawOptions {
+                control_points: Some(12),
+                degree: Some(2),
+                knots: Some(KnotPlacement::Uniform),
+                iterations: Some(50),
+                parameterization: Some(ParameterizationOption::Shape(
+                    Parameterization::Centripetal,
+                )),
+                spacing_m: Some(250.0),
+                samples: Some(20),
+                precision: Some(5),
+                solver: Some(Solver::GlsPia),
+                parameter_correction: Some(false),
+                ..RawOptions::default()
+            },
         );
-        assert_eq!(cli, service);
+        assert_eq!(cli, library);
+        let cli = cli_job(&[
+            "fit",
+            "--tolerance-m",
+            "25",
+            "--topology",
+            "shared",
+            "--output-format",
+            "topojson",
+            "--drop-small-rings",
+        ])
+        .unwrap();
         assert_eq!(
-            cli_job(&["fit", "--tolerance-m", "25", "--degree", "2"]).unwrap(),
-            service_job(GeoEndpoint::Fit, &[("tolerance_m", "25"), ("degree", "2")])
+            (cli.topology, cli.format, cli.drop_small_rings),
+            (Topology::Shared, crate::earth::OutputFormat::TopoJson, true)
         );
         assert_eq!(
-            cli_job(&[
-                "interpolate",
-                "--beta1",
-                "2",
-                "--beta2",
-                "0.5",
-                "--samples",
-                "40"
-            ])
-            .unwrap(),
-            service_job(
-                GeoEndpoint::Interpolate,
-                &[("beta1", "2"), ("beta2", "0.5"), ("samples", "40")]
-            )
+            cli_job(&["fit", "--time-property", "when", "--spacing-s", "30"])
+                .unwrap()
+                .time
+                .fit_in_time,
+            Some(TimeSource::Property("when".into()))
         );
-        for (cli, service) in [
-            (
-                &["fit", "--parameterization", "time", "--tolerance-m", "10"][..],
-                &[("parameterization", "time"), ("tolerance_m", "10")][..],
-            ),
-            (
-                &["fit", "--time-property", "coordTimes"][..],
-                &[("time_property", "coordTimes")][..],
-            ),
-            (
-                &["fit", "--spacing-s", "30"][..],
-                &[("spacing_s", "30")][..],
-            ),
-            (
-                &["evaluate", "--at", "1,2010-10-03T09:36:30Z"][..],
-                &[("at", "1,2010-10-03T09:36:30Z")][..],
-            ),
-            (
-                &["evaluate", "--spacing-s", "60"][..],
-                &[("spacing_s", "60")][..],
-            ),
-        ] {
-            let endpoint = if cli[0] == "fit" {
-                GeoEndpoint::Fit
-            } else {
-                GeoEndpoint::Evaluate
-            };
-            assert_eq!(
-                cli_job(cli).unwrap(),
-                service_job(endpoint, service),
-                "{cli:?}"
-            );
-        }
+        let at = cli_job(&["evaluate", "--at", "1,2010-10-03T09:36:30Z"]).unwrap();
+        assert_eq!(at.time.at_unix_s, Some(vec![1.0, 1286098590.0]));
+        assert_eq!(at.operation, Operation::Evaluate);
+        assert_eq!(
+            cli_job(&["interpolate", "--beta1", "2", "--samples", "40"])
+                .unwrap()
+                .output
+                .sampling,
+            Sampling::Samples(40)
+        );
     }
 
     #[test]
-    fn out_of_range_options_name_the_flag() {
+    fn refused_options_name_the_flag() {
         for (args, flag) in [
             (&["fit", "--degree", "9"][..], "--degree"),
             (&["fit", "--control-points", "2"][..], "--control-points"),
@@ -992,14 +897,37 @@ mod tests {
             (&["fit", "--spacing-s", "0"][..], "--spacing-s"),
             (&["interpolate", "--spacing-s", "10"][..], "--spacing-s"),
             (&["evaluate", "--at", "1,2", "--samples", "5"][..], "--at"),
+            (&["evaluate", "--at", "1,,2"][..], "--at"),
+            (
+                &["fit", "--tolerance-m", "10", "--control-points", "5"][..],
+                "--tolerance-m: --tolerance-m excludes --control-points",
+            ),
+            (
+                &["fit", "--spacing-s", "10", "--samples", "5"][..],
+                "--spacing-s: --spacing-s excludes --samples",
+            ),
+            (
+                &["fit", "--parameterization", "chord", "--time-property", "t"][..],
+                "--time-property: --time-property excludes --parameterization chord",
+            ),
+            (
+                &["fit", "--topology", "shared"][..],
+                "--topology: shared topology fits every border to a tolerance: give --tolerance-m too",
+            ),
+            (
+                &["fit", "--output-format", "topojson"][..],
+                "--output-format: TopoJSON",
+            ),
+            (
+                &["interpolate", "--output-format", "topojson"][..],
+                "--output-format: not an option of interpolate",
+            ),
         ] {
             let e = cli_job(args).unwrap_err();
             assert_eq!(e.status, 2, "{args:?}");
             assert!(e.message.starts_with(flag), "{args:?}: {}", e.message);
             assert!(!e.message.contains("server"), "{}", e.message);
         }
-        assert!(cli_job(&["fit", "--samples", "10", "--spacing-m", "5"]).is_err());
-        assert!(cli_job(&["fit", "--tolerance-m", "10", "--control-points", "5"]).is_err());
     }
 
     #[test]

@@ -54,7 +54,7 @@ impl Failure {
     /// An option the Earth layer refused, named as its flag (`--control-points: ...`), a
     /// count past its limit saying so: exit status 2.
     pub(crate) fn option(e: crate::earth::EarthError) -> Failure {
-        match e.problem.option_message() {
+        match e.problem.option_message_named(&|name: &str| flag(name)) {
             Some((option, message)) => {
                 let limit = if matches!(e.problem, crate::earth::Problem::CountOutOfRange { .. }) {
                     " (the limit)"
@@ -68,9 +68,13 @@ impl Failure {
     }
 }
 
-/// The flag of an option the library names (`control_points` -> `--control-points`).
+/// The flag of an option the library names (`control_points` -> `--control-points`; the
+/// output `format` is `--output-format`, `--format` being the input's).
 pub(crate) fn flag(option: &str) -> String {
-    format!("--{}", option.replace('_', "-"))
+    match option {
+        "format" => "--output-format".into(),
+        _ => format!("--{}", option.replace('_', "-")),
+    }
 }
 
 /// Parses the command line, runs the command and returns the exit status.

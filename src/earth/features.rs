@@ -1284,11 +1284,23 @@ fn geometry(kind: &str, coordinates: JsonOut) -> JsonOut {
 /// [`super::antimeridian::rejoin::RejoinedPolygon::pole`]); empty when none is known.
 fn assemble(
     kind: &str,
-    outputs: Vec<CurveOutput>,
+    mut outputs: Vec<CurveOutput>,
     poles: &[Option<f64>],
     job: &Job,
 ) -> Result<Assembled, EarthError> {
     let precision = job.output.precision;
+    // drop_small_rings: the rings kept as small are dropped (small_rings::drop_kept); they
+    // still count as curves read.
+    let (dropped, dropped_curves, dropped_input) =
+        if job.drop_small_rings && kind.ends_with("Polygon") {
+            let input: usize = outputs.iter().map(|c| c.report.input_points).sum();
+            let n = outputs.len();
+            let dropped = small_rings::drop_kept(&mut outputs);
+            let left: usize = outputs.iter().map(|c| c.report.input_points).sum();
+            (Some(dropped), n - outputs.len(), input - left)
+        } else {
+            (None, 0, 0)
+        };
     // A curve whose knots or parameters under- or overflow samples to non-finite points; that
     // is the input's fault and is said so (never `null` coordinates or an empty geometry).
     for c in &outputs {
@@ -1413,6 +1425,8 @@ fn assemble(
         stats.stored_numbers += c.report.stored_numbers;
         stats.max_error_m = stats.max_error_m.max(c.report.max_error_m);
     }
+    stats.curves += dropped_curves;
+    stats.input_points += dropped_input;
     // Rings kept whole because they were too small to fit (small_rings), by pointer, as
     // shared fitting lists them.
     let kept: Vec<String> = outputs
@@ -1424,6 +1438,9 @@ fn assemble(
     if kind.ends_with("Polygon") {
         if let JsonOut::Object(m) = &mut info {
             m.insert("kept_rings".into(), JsonOut::Value(json!(kept)));
+            if let Some(d) = &dropped {
+                m.insert("dropped_rings".into(), JsonOut::Value(json!(d)));
+            }
         }
     }
     let mut extra = Vec::new();

@@ -9,6 +9,14 @@
 //! than the tolerance from the triangle), or as it came when it has fewer than three distinct
 //! positions. Its
 //! report says so (`small_ring`), with its distance to the input measured, not assumed.
+//!
+//! With `drop_small_rings` ([`crate::earth::Job::drop_small_rings`]) such a ring is dropped
+//! instead ([`drop_kept`] per feature; the shared fit does the same with its arcs) and its
+//! pointer listed in `properties.fit.dropped_rings`. A polygon whose exterior ring is dropped
+//! goes whole, its holes with it (a hole without its exterior bounds nothing); a feature left
+//! with no polygon is still written, with its properties, `id` and report, and an empty
+//! MultiPolygon (`"coordinates": []`) as its geometry: the feature is never refused or lost,
+//! and a GIS reads it as an empty geometry of the layer's type.
 
 use serde_json::{json, Map, Value};
 
@@ -334,6 +342,29 @@ pub fn keep(
     ))
 }
 
+/// Takes the rings kept as small (those whose report has `small_ring`) out of `outputs`, with
+/// the other rings of a polygon whose exterior ring is one of them, and returns the pointers of
+/// the rings taken, in input order. `outputs` are the rings of one Polygon (paths `[ring]`) or
+/// MultiPolygon (paths `[polygon, ring]`).
+pub fn drop_kept(outputs: &mut Vec<CurveOutput>) -> Vec<String> {
+    let small = |c: &CurveOutput| c.report.fields.contains_key("small_ring");
+    let polygon = |c: &CurveOutput| c.report.path[..c.report.path.len().saturating_sub(1)].to_vec();
+    let gone: Vec<Vec<usize>> = outputs
+        .iter()
+        .filter(|c| small(c) && c.report.path.last() == Some(&0))
+        .map(polygon)
+        .collect();
+    let mut dropped = Vec::new();
+    outputs.retain(|c| {
+        let drop = small(c) || gone.contains(&polygon(c));
+        if drop {
+            dropped.push(c.pointer.clone());
+        }
+        !drop
+    });
+    dropped
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -408,6 +439,42 @@ mod tests {
         // The ring is about 22 m across: every input vertex is within that of the triangle.
         let two_way = out.report.fields["two_way_distance_m"].as_f64().unwrap();
         assert!(two_way > 0.0 && two_way < 30.0, "{two_way}");
+    }
+
+    #[test]
+    fn dropping_an_exterior_drops_its_holes_and_nothing_else() {
+        let square = json!([[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]);
+        let tiny = json!([[5.0, 40.0], [5.0, 40.0], [5.0, 40.0], [5.0, 40.0]]);
+        let ring = |v: &Value, path: Vec<usize>, small: bool| {
+            let pointer = format!(
+                "/coordinates/{}",
+                path.iter()
+                    .map(|i| i.to_string())
+                    .collect::<Vec<_>>()
+                    .join("/")
+            );
+            let (mut out, _) = keep(v, &pointer, path, None).unwrap();
+            if !small {
+                out.report.fields.remove("small_ring");
+            }
+            out
+        };
+        // Polygon 0: a kept exterior with a hole; polygon 1: an exterior with a small hole;
+        // polygon 2: untouched.
+        let mut outputs = vec![
+            ring(&tiny, vec![0, 0], true),
+            ring(&square, vec![0, 1], false),
+            ring(&square, vec![1, 0], false),
+            ring(&tiny, vec![1, 1], true),
+            ring(&square, vec![2, 0], false),
+        ];
+        let dropped = drop_kept(&mut outputs);
+        assert_eq!(
+            dropped,
+            ["/coordinates/0/0", "/coordinates/0/1", "/coordinates/1/1"]
+        );
+        let left: Vec<Vec<usize>> = outputs.iter().map(|c| c.report.path.clone()).collect();
+        assert_eq!(left, [vec![1, 0], vec![2, 0]]);
     }
 
     #[test]

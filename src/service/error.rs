@@ -181,14 +181,14 @@ impl ApiError {
     }
 }
 
-/// The `title` of each kind of problem.
+/// The `title` of each kind of problem: the service's own, then the library's
+/// ([`crate::earth::error::title_of`]).
 pub fn title_of(slug: &str) -> &'static str {
     match slug {
         "malformed-json" => "Malformed JSON",
         "invalid-query" => "Invalid query parameter",
         "unreadable-body" => "Unreadable body",
         "body-timeout" => "Request body too slow",
-        "non-finite" => "Result not finite",
         "unsupported-media-type" => "Unsupported media type",
         "body-too-large" => "Request body too large",
         "too-many-points" => "Too many points",
@@ -198,21 +198,10 @@ pub fn title_of(slug: &str) -> &'static str {
         "not-found" => "Not found",
         "method-not-allowed" => "Method not allowed",
         "bad-request" => "Bad request",
-        "invalid-geojson" => "Invalid GeoJSON",
-        "invalid-coordinate" => "Invalid coordinate",
-        "invalid-ring" => "Invalid polygon ring",
-        "too-few-points" => "Too few points",
-        "antipodal-points" => "Antipodal neighbours",
-        "too-many-control-points" => "More control points than points",
-        "too-many-samples" => "Too many output points",
-        "invalid-option" => "Invalid option",
-        "conflicting-options" => "Conflicting options",
-        "invalid-spline" => "Invalid spline document",
         "invalid-points" => "Invalid points document",
         "nothing-to-fit" => "Nothing to fit",
         "output-too-large" => "Output too large",
-        "not-interpolable" => "Cannot interpolate",
-        _ => "Cannot fit",
+        other => crate::earth::error::title_of(other),
     }
 }
 
@@ -246,7 +235,9 @@ impl From<EarthError> for ApiError {
         let slug = e.problem.slug();
         let detail = e.problem.to_string();
         match e.problem {
-            Problem::InvalidOption { option, .. } | Problem::RequiresOption { option, .. } => {
+            Problem::InvalidOption { option, .. }
+            | Problem::RequiresOption { option, .. }
+            | Problem::ConflictingOptions { option, .. } => {
                 ApiError::unprocessable(slug, detail).param(option)
             }
             Problem::CountOutOfRange { option, .. } => {

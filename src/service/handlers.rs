@@ -10,7 +10,7 @@ use super::request::PostRequest;
 use super::{AppState, ServiceConfig, OPENAPI_YAML};
 use crate::document::{curve_from_json, InterpolationDocument};
 use crate::document::{pointer, tolerance_document, FitDocument, PointsInput, SamplesDocument};
-use crate::earth::{Document, FeatureStats, Job};
+use crate::earth::{Document, FeatureStats, Job, Topology};
 use crate::sphere::cancel::Cancel;
 use crate::sphere::interpolate;
 use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
@@ -54,26 +54,18 @@ pub(super) async fn evaluate(req: PostRequest) -> Result<Response, ApiError> {
 
 async fn geo(req: PostRequest, endpoint: GeoEndpoint) -> Result<Response, ApiError> {
     let config = req.state().config.clone();
-    let ((job, (topology, format)), accepted) = req
+    let (job, accepted) = req
         .accept(&[GEO_JSON, JSON], |pairs| {
-            let topo = if endpoint == GeoEndpoint::Fit {
-                query::fit_topology(&pairs)?
-            } else {
-                Default::default()
-            };
-            let job = query::geo_job(pairs, endpoint, &config.limits)?;
-            crate::earth::topology::validate(&job, topo.0, topo.1).map_err(ApiError::from)?;
-            Ok((job, topo))
+            query::geo_job(pairs, endpoint, &config.limits)
         })
         .await?;
-    let shared = topology == crate::earth::topology::Topology::Shared;
+    let format = job.format;
     let out = accepted
         .run(endpoint.route(), move |bytes, cancel| {
             let job = job.with_cancel(cancel.clone());
-            if shared {
-                coverage_work(bytes, &job, format, &config)
-            } else {
-                geo_work(bytes, endpoint, &job, &config, cancel)
+            match job.topology {
+                Topology::Shared => coverage_work(bytes, &job, &config),
+                Topology::PerFeature => geo_work(bytes, endpoint, &job, &config, cancel),
             }
         })
         .await?;
@@ -89,7 +81,6 @@ async fn geo(req: PostRequest, endpoint: GeoEndpoint) -> Result<Response, ApiErr
 fn coverage_work(
     bytes: &[u8],
     job: &Job,
-    format: crate::earth::topology::OutputFormat,
     config: &ServiceConfig,
 ) -> Result<(Vec<u8>, usize, usize), ApiError> {
     let value = parse_json(bytes)?;
@@ -117,7 +108,7 @@ fn coverage_work(
             config.max_output_points,
         ));
     }
-    let bytes = match format {
+    let bytes = match job.format {
         crate::earth::topology::OutputFormat::TopoJson => {
             crate::earth::topojson::to_bytes(&crate::earth::topojson::to_topology(coverage))
         }
@@ -278,7 +269,7 @@ fn sphere_fit_options(
     let p = Params::new(pairs, query::SPHERE_FIT_PARAMS)?;
     let mut options = fit_options(&p, crate::sphere::FitOptions::default())?;
     options.target_max_error_rad = p.num("target_max_error_rad")?;
-    let tolerance_rad = query::tolerance(&p, "tolerance_rad")?;
+    let tolerance_rad = query::sphere_tolerance(&p)?;
     crate::earth::check_fit_options(&options, &config.limits)?;
     Ok((options, tolerance_rad))
 }

@@ -1,11 +1,10 @@
 //! Query parameters -> options. Every endpoint names the parameters it accepts; anything else,
 //! a repeat, an empty value or a value that does not parse is a 400 `invalid-query` naming the
-//! parameter. Values that parse but are out of range are checked later (422 `invalid-option`).
+//! parameter. The GeoJSON endpoints only fill a [`RawOptions`]: whether values are in range and
+//! go together is [`crate::earth::into_job`]'s business (a 422 naming the option).
 
 use super::error::ApiError;
-use crate::earth::{
-    InterpolateSettings, Job, Limits, Operation, OutputOptions, Sampling, TimeOptions, TimeSource,
-};
+use crate::earth::{into_job, Job, Limits, OperationKind, RawOptions};
 use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
 use std::collections::BTreeMap;
 use std::str::FromStr;
@@ -98,23 +97,6 @@ impl Params {
             }),
         }
     }
-
-    /// True when `name` was given.
-    pub fn has(&self, name: &str) -> bool {
-        self.map.contains_key(name)
-    }
-
-    /// The raw value of `name`, if given.
-    pub fn raw(&self, name: &str) -> Option<&str> {
-        self.map.get(name).map(String::as_str)
-    }
-
-    /// These parameters without `name`.
-    fn without(&self, name: &str) -> Params {
-        let mut map = self.map.clone();
-        map.remove(name);
-        Params { map }
-    }
 }
 
 const INTEGER: &str = "a non-negative integer";
@@ -130,28 +112,6 @@ pub fn parse_number(s: &str) -> Option<f64> {
     crate::earth::parse_json_number(s)
 }
 
-/// Parameters of `/v1/fit`.
-pub const FIT_PARAMS: &[&str] = &[
-    "control_points",
-    "degree",
-    "knots",
-    "iterations",
-    "parameterization",
-    "solver",
-    "parameter_correction",
-    "tolerance_m",
-    "time_property",
-    "samples",
-    "spacing_m",
-    "spacing_s",
-    "precision",
-    "topology",
-    "format",
-];
-/// Parameters of `/v1/interpolate`.
-pub const INTERPOLATE_PARAMS: &[&str] = &["beta1", "beta2", "samples", "spacing_m", "precision"];
-/// Parameters of `/v1/evaluate`.
-pub const EVALUATE_PARAMS: &[&str] = &["samples", "spacing_m", "spacing_s", "at", "precision"];
 /// Parameters of `/v1/sphere/fit`.
 pub const SPHERE_FIT_PARAMS: &[&str] = &[
     "control_points",
@@ -168,85 +128,6 @@ pub const SPHERE_FIT_PARAMS: &[&str] = &[
 pub const SPHERE_EVALUATE_PARAMS: &[&str] = &["samples", "at"];
 /// Parameters of `/v1/sphere/interpolate`.
 pub const SPHERE_INTERPOLATE_PARAMS: &[&str] = &["beta1", "beta2"];
-
-fn output_options(p: &Params) -> Result<OutputOptions, ApiError> {
-    let samples = p.int("samples")?;
-    let spacing = p.num("spacing_m")?;
-    let spacing_s = p.num("spacing_s")?;
-    if let Some(s) = spacing_s {
-        if samples.is_some() || spacing.is_some() {
-            return Err(ApiError::unprocessable(
-                "conflicting-options",
-                "spacing_s excludes samples and spacing_m: give one way of sampling".to_string(),
-            )
-            .param("spacing_s"));
-        }
-        return Ok(OutputOptions {
-            sampling: Sampling::SpacingS(s),
-            precision: precision(p)?,
-        });
-    }
-    Ok(OutputOptions {
-        sampling: Sampling::from_samples_and_spacing(samples, spacing),
-        precision: precision(p)?,
-    })
-}
-
-fn precision(p: &Params) -> Result<u32, ApiError> {
-    Ok(match p.int("precision")? {
-        Some(n) => u32::try_from(n).unwrap_or(u32::MAX),
-        None => crate::earth::DEFAULT_PRECISION,
-    })
-}
-
-/// `parameterization=time` (with `time_property`; either of those or `spacing_s` on a fit
-/// implies it) and `at`, and the parameters left for the fit options.
-fn time_options(p: &Params, fit: bool) -> Result<(TimeOptions, Params), ApiError> {
-    let mut t = TimeOptions::default();
-    // `time_property` and (on /v1/fit) `spacing_s` mean a fit in time: they imply
-    // parameterization=time, and conflict with any other.
-    let implied = ["time_property", "spacing_s"]
-        .into_iter()
-        .find(|k| p.has(k) && (*k == "time_property" || fit));
-    let in_time = match (p.raw("parameterization"), implied) {
-        (Some("time"), _) | (None, Some(_)) => true,
-        (Some(other), Some(k)) => {
-            return Err(ApiError::unprocessable(
-                "conflicting-options",
-                format!("{k} is for a fit in time: it excludes parameterization={other}"),
-            )
-            .param(k))
-        }
-        _ => false,
-    };
-    if in_time {
-        t.fit_in_time = Some(match p.raw("time_property") {
-            Some(name) => TimeSource::Property(name.to_string()),
-            None => TimeSource::Auto,
-        });
-    }
-    if let Some(v) = p.raw("at") {
-        // A string the schema allows but that holds no times: 422, like other unusable values.
-        let at = crate::earth::time::parse_time_list(v).map_err(|m| {
-            ApiError::from(crate::earth::EarthError::new(
-                "",
-                crate::earth::Problem::InvalidOption {
-                    option: "at",
-                    message: format!(
-                        "at={v:?}: {m} (give RFC 3339 times or unix seconds, comma-separated)"
-                    ),
-                },
-            ))
-        })?;
-        t.at_unix_s = Some(at);
-    }
-    let rest = if in_time {
-        p.without("parameterization")
-    } else {
-        p.clone()
-    };
-    Ok((t, rest))
-}
 
 /// Fit options from the query over `base` (shared by `/v1/fit`, whose defaults are
 /// [`FitOptions::faithful`], and `/v1/sphere/fit`, whose defaults are the paper's).
@@ -279,107 +160,39 @@ pub fn fit_options(p: &Params, base: FitOptions) -> Result<FitOptions, ApiError>
     Ok(o)
 }
 
-/// A tolerance (`tolerance_m` or `tolerance_rad`), if given: a 400 naming it when
-/// `control_points` is given too, a 422 when it is not a positive finite number.
+/// `tolerance_rad` of `/v1/sphere/fit`, if given, checked by
+/// [`crate::earth::check_sphere_tolerance`].
 ///
 /// # Errors
-/// As above, and 400 when it does not parse. Given together with `control_points` it is a 422
-/// (`conflicting-options`): each is valid alone and the schema cannot forbid the pair, but a
-/// tolerance fit chooses its own control points.
-pub fn tolerance(p: &Params, name: &'static str) -> Result<Option<f64>, ApiError> {
-    let Some(t) = p.num(name)? else {
-        return Ok(None);
-    };
-    if p.has("control_points") {
-        return Err(ApiError::unprocessable(
-            "conflicting-options",
-            format!(
-                "{name} and control_points exclude each other: a tolerance fit chooses its own \
-                 control points"
-            ),
-        )
-        .param(name));
-    }
-    crate::earth::check_tolerance(name, t)?;
-    Ok(Some(t))
+/// 400 when it does not parse; 422 when it is not a positive number or comes with
+/// `control_points`.
+pub fn sphere_tolerance(p: &Params) -> Result<Option<f64>, ApiError> {
+    let t = p.num("tolerance_rad")?;
+    Ok(crate::earth::check_sphere_tolerance(
+        t,
+        p.int("control_points")?,
+    )?)
 }
 
-/// The Earth job of a geo endpoint, validated against the limits.
+/// The Earth job of a geo endpoint: the query read into [`RawOptions`] and checked by
+/// [`into_job`].
 ///
 /// # Errors
-/// 400 for unparsable parameters, 422 `invalid-option` for values out of range.
+/// 400 `invalid-query` for unknown, repeated, empty or unparsable parameters; 422 from
+/// [`into_job`] for values out of range or options that do not go together.
 pub fn geo_job(
     pairs: Vec<(String, String)>,
     endpoint: GeoEndpoint,
     limits: &Limits,
 ) -> Result<Job, ApiError> {
-    let (allowed, operation) = match endpoint {
-        GeoEndpoint::Fit => (FIT_PARAMS, None),
-        GeoEndpoint::Interpolate => (INTERPOLATE_PARAMS, None),
-        GeoEndpoint::Evaluate => (EVALUATE_PARAMS, Some(Operation::Evaluate)),
-    };
-    let p = Params::new(pairs, allowed)?;
-    let (time, p) = time_options(&p, endpoint == GeoEndpoint::Fit)?;
-    let operation = match (endpoint, operation) {
-        (_, Some(op)) => op,
-        (GeoEndpoint::Fit, None) => match tolerance(&p, "tolerance_m")? {
-            Some(tolerance_m) => Operation::FitToTolerance {
-                options: fit_options(&p, FitOptions::faithful())?,
-                tolerance_m,
-            },
-            None => Operation::Fit(fit_options(&p, FitOptions::faithful())?),
-        },
-        _ => {
-            let d = InterpolateSettings::default();
-            Operation::Interpolate(InterpolateSettings {
-                beta1: p.num("beta1")?.unwrap_or(d.beta1),
-                beta2: p.num("beta2")?.unwrap_or(d.beta2),
-            })
-        }
-    };
-    let job = Job {
-        operation,
-        output: output_options(&p)?,
-        limits: limits.clone(),
-        cancel: Default::default(),
-        time,
-    };
-    job.validate().map_err(ApiError::from)?;
-    Ok(job)
-}
-
-/// `topology` (`per-feature`, `shared`) and `format` (`geojson`, `topojson`) of `/v1/fit`,
-/// defaults when absent; names were checked by [`geo_job`]; whether they go with the other
-/// options is checked by [`crate::earth::topology::validate`].
-///
-/// # Errors
-/// 400 `invalid-query` for values that are not one of these.
-pub fn fit_topology(
-    pairs: &[(String, String)],
-) -> Result<
-    (
-        crate::earth::topology::Topology,
-        crate::earth::topology::OutputFormat,
-    ),
-    ApiError,
-> {
-    let value = |name: &str| pairs.iter().find(|(k, _)| k == name).map(|(_, v)| v);
-    let topology = match value("topology") {
-        None => Default::default(),
-        Some(v) => v.parse().map_err(|_| {
-            ApiError::invalid_query(
-                "topology",
-                format!("topology={v:?} is not per-feature or shared"),
-            )
-        })?,
-    };
-    let format = match value("format") {
-        None => Default::default(),
-        Some(v) => v.parse().map_err(|_| {
-            ApiError::invalid_query("format", format!("format={v:?} is not geojson or topojson"))
-        })?,
-    };
-    Ok((topology, format))
+    let kind = endpoint.kind();
+    let p = Params::new(pairs, kind.option_names())?;
+    let mut raw = RawOptions::default();
+    for (name, value) in &p.map {
+        raw.set(name, value)
+            .map_err(|e| ApiError::invalid_query(name, e.to_string()))?;
+    }
+    Ok(into_job(raw, kind, limits)?)
 }
 
 /// The three GeoJSON endpoints.
@@ -391,6 +204,15 @@ pub enum GeoEndpoint {
 }
 
 impl GeoEndpoint {
+    /// The operation, whose options the endpoint takes.
+    pub fn kind(self) -> OperationKind {
+        match self {
+            GeoEndpoint::Fit => OperationKind::Fit,
+            GeoEndpoint::Interpolate => OperationKind::Interpolate,
+            GeoEndpoint::Evaluate => OperationKind::Evaluate,
+        }
+    }
+
     /// The route, for metrics.
     pub fn route(self) -> &'static str {
         match self {
@@ -404,6 +226,7 @@ impl GeoEndpoint {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::earth::{Operation, OutputOptions, Sampling, TimeSource};
 
     fn pairs(q: &[(&str, &str)]) -> Vec<(String, String)> {
         q.iter()

@@ -605,9 +605,9 @@ fn usage_and_unreadable_input_exit_2() {
             "--beta1",
         ),
         (
-            &["fit", "--samples", "10", "--spacing-m", "5"],
+            &["fit", "--spacing-s", "10", "--samples", "5"],
             Some(b"".as_slice()),
-            "cannot be used with",
+            "--spacing-s: --spacing-s excludes --samples",
         ),
         (
             &["fit", "fixtures/no_such_file.geojson"],

@@ -3,9 +3,13 @@
 //! islets of one repeated position, slivers, the Dutch parcels of georust's fixtures. Checked on
 //! the written output: every ring closed with at least 4 positions and 3 distinct ones (or as it
 //! came), every input vertex within the tolerance of its output ring, nothing dropped.
+//! With `drop_small_rings` those rings are dropped instead, listed, in both modes and through
+//! both the service and the command line.
 
 use crate::helpers::EARTH_RADIUS_M;
-use crate::helpers::{distance_to_arc, fixture_path, read_fixture_json, run_spherefit, unit3};
+use crate::helpers::{
+    distance_to_arc, fixture_path, post_geo_oneshot, read_fixture_json, run_spherefit, unit3,
+};
 use serde_json::{json, Value};
 
 type Ring = Vec<[f64; 2]>;
@@ -189,4 +193,135 @@ fn a_property_named_fit_is_refused_with_its_pointer_not_overwritten() {
         "{}",
         String::from_utf8_lossy(&again.stderr)
     );
+}
+
+/// The fixture fitted with `drop_small_rings`, through the command line and the service.
+fn fit_dropping(doc: &Value, mode: &str) -> [Value; 2] {
+    let out = run_spherefit(
+        &[
+            "fit",
+            "--tolerance-m",
+            "1000",
+            "--topology",
+            mode,
+            "--drop-small-rings",
+            "-",
+        ],
+        Some(doc.to_string().as_bytes()),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{mode}: {stderr}");
+    let cli: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (status, _, http) = post_geo_oneshot(
+        &format!("/v1/fit?tolerance_m=1000&topology={mode}&drop_small_rings=true"),
+        doc,
+    );
+    assert_eq!(status, 200, "{mode}: {http}");
+    [cli, http]
+}
+
+#[test]
+fn drop_small_rings_drops_and_lists_them_in_both_modes_through_both_front_ends() {
+    let input = read_fixture_json("small_rings.geojson");
+    for mode in ["per-feature", "shared"] {
+        for out in fit_dropping(&input, mode) {
+            let islands = &out["features"][0];
+            assert_eq!(islands["id"], "islands", "{mode}: the feature stays");
+            assert_eq!(islands["properties"]["name"], "islands");
+            // Only the 3-degree square is left; the islet, the triangle and the sliver went.
+            assert_eq!(
+                islands["geometry"]["coordinates"].as_array().unwrap().len(),
+                1,
+                "{mode}: {}",
+                islands["geometry"]
+            );
+            let fit = &islands["properties"]["fit"];
+            assert_eq!(
+                fit["dropped_rings"],
+                json!([
+                    "/features/0/geometry/coordinates/1/0",
+                    "/features/0/geometry/coordinates/2/0",
+                    "/features/0/geometry/coordinates/3/0"
+                ]),
+                "{mode}"
+            );
+            assert_eq!(fit["kept_rings"], json!([]), "{mode}");
+            let sliver = &out["features"][1];
+            assert_eq!(
+                sliver["properties"]["fit"]["dropped_rings"],
+                json!(["/features/1/geometry/coordinates/1"]),
+                "{mode}: the sliver hole"
+            );
+            let rings = polygons(&sliver["geometry"]);
+            assert_eq!(
+                (rings.len(), rings[0].len()),
+                (1, 1),
+                "{mode}: the exterior without its hole"
+            );
+            assert_eq!(
+                out["features"][2]["geometry"]["type"], "MultiPoint",
+                "{mode}: other geometries pass through"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_dropped_exterior_takes_its_holes_and_an_emptied_feature_stays_with_an_empty_geometry() {
+    // An islet 100 m across with a hole: at 1 km both go; the feature and its properties stay.
+    let doc = json!({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "id": 1, "properties": {"name": "islet"}, "geometry": {
+            "type": "Polygon", "coordinates": [
+                [[20.0, 40.0], [20.001, 40.0], [20.001, 40.001], [20.0, 40.001], [20.0, 40.0]],
+                [[20.0004, 40.0004], [20.0006, 40.0004], [20.0006, 40.0006], [20.0004, 40.0004]]
+            ]}},
+        {"type": "Feature", "id": 2, "properties": {}, "geometry": {
+            "type": "Polygon", "coordinates": [[[30, 40], [33, 40], [33, 43], [30, 43], [30, 40]]]}}
+    ]});
+    for mode in ["per-feature", "shared"] {
+        for out in fit_dropping(&doc, mode) {
+            let islet = &out["features"][0];
+            assert_eq!(
+                (&islet["id"], &islet["properties"]["name"]),
+                (&json!(1), &json!("islet"))
+            );
+            assert_eq!(
+                islet["geometry"],
+                json!({"type": "MultiPolygon", "coordinates": []}),
+                "{mode}"
+            );
+            assert_eq!(
+                islet["properties"]["fit"]["dropped_rings"],
+                json!([
+                    "/features/0/geometry/coordinates/0",
+                    "/features/0/geometry/coordinates/1"
+                ]),
+                "{mode}"
+            );
+            assert_eq!(
+                polygons(&out["features"][1]["geometry"]).len(),
+                1,
+                "{mode}: the large polygon is fitted as usual"
+            );
+        }
+    }
+    // Without the option the islet is kept (as a small valid ring) and nothing is dropped.
+    let (status, _, kept) = post_geo_oneshot("/v1/fit?tolerance_m=1000", &doc);
+    assert_eq!(status, 200);
+    assert_eq!(polygons(&kept["features"][0]["geometry"]).len(), 1);
+    assert!(kept["features"][0]["properties"]["fit"]
+        .get("dropped_rings")
+        .is_none());
+}
+
+#[test]
+fn drop_small_rings_is_refused_where_it_means_nothing() {
+    let line = json!({"type": "LineString", "coordinates": [[0, 0], [1, 1], [2, 0]]});
+    let (status, _, problem) = post_geo_oneshot("/v1/fit?drop_small_rings=maybe", &line);
+    assert_eq!(status, 400, "{problem}");
+    assert_eq!(problem["parameter"], "drop_small_rings");
+    let (status, _, problem) = post_geo_oneshot("/v1/interpolate?drop_small_rings=true", &line);
+    assert_eq!(status, 400, "{problem}");
+    let out = run_spherefit(&["interpolate", "--drop-small-rings", "-"], None);
+    assert_eq!(out.status.code(), Some(2), "not a flag of interpolate");
 }

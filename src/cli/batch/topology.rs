@@ -2,10 +2,10 @@
 //! ([`crate::earth::topology`]), written as GeoJSON or (`--output-format topojson`) TopoJSON.
 
 use super::input::Format;
-use super::{job, stderr_line, BatchArgs, FitArgs};
+use super::{stderr_line, BatchArgs};
 use crate::cli::Failure;
-use crate::earth::topology::{fit_coverage, validate, OutputFormat, Topology};
-use crate::earth::{Document, Problem};
+use crate::earth::topology::{fit_coverage, OutputFormat, Topology};
+use crate::earth::{Document, Job};
 use clap::{Args, ValueEnum};
 use std::io::{self, Read, Write};
 use std::time::Instant;
@@ -16,7 +16,7 @@ use std::time::Instant;
 pub(crate) struct TopologyArgs {
     /// per-feature: every line and ring on its own; shared: the polygons of the input are one
     /// coverage, each border shared by neighbours fitted once (needs --tolerance-m; the input
-    /// is read whole, one GeoJSON document)
+    /// is read whole, one GeoJSON document; --output-format topojson writes TopoJSON)
     #[arg(long, value_name = "TOPOLOGY", default_value = "per-feature", value_parser = parse_topology)]
     pub topology: Topology,
 }
@@ -26,57 +26,38 @@ fn parse_topology(s: &str) -> Result<Topology, String> {
         .map_err(|_| format!("{s:?}: use per-feature or shared"))
 }
 
-/// TopoJSON is written only by `--topology shared`, and never read.
-pub(super) fn check_formats(batch: &BatchArgs) -> Result<(), Failure> {
+impl Format {
+    /// The output format an `--output-format` asks of the library: TopoJSON, or `None` for
+    /// the default (GeoJSON; the sequence formats are the command line's own).
+    pub(super) fn topology_format(self) -> Option<OutputFormat> {
+        (self == Format::Topojson).then_some(OutputFormat::TopoJson)
+    }
+}
+
+/// TopoJSON is written (with `--topology shared`), never read.
+pub(super) fn check_input_format(batch: &BatchArgs) -> Result<(), Failure> {
     if batch.format == Format::Topojson {
         return Err(Failure::input(
             "--format topojson: TopoJSON is an output format here (--output-format topojson with --topology shared); give GeoJSON input",
         ));
     }
-    if batch.output_format == Format::Topojson {
-        return Err(Failure::input(
-            "--output-format topojson: TopoJSON output is made of shared arcs: give --topology shared too",
-        ));
-    }
     Ok(())
 }
 
-/// Runs the coverage fit.
-pub(super) fn fit(a: FitArgs) -> Result<(), Failure> {
+/// Runs the coverage fit of `job` (whose topology is shared).
+pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
     let started = Instant::now();
-    let batch = &a.batch;
-    let time = a.fit.time(a.output.spacing_s.is_some())?;
-    if time.fit_in_time.is_some() {
-        return Err(Failure::input(
-            "--topology shared: fits polygon rings, which carry no times (drop --parameterization time, --time-property and --spacing-s)",
-        ));
+    check_input_format(batch)?;
+    if matches!(batch.output_format, Format::Seq | Format::Lines) {
+        let name = batch
+            .output_format
+            .to_possible_value()
+            .map_or("?".into(), |v| v.get_name().to_string());
+        return Err(Failure::input(format!(
+            "--output-format {name}: --topology shared writes one document: geojson or topojson"
+        )));
     }
-    let job = job(a.fit.operation(), a.fit.limits(), time, &a.output)?;
-    if batch.format == Format::Topojson {
-        return Err(Failure::input(
-            "--format topojson: TopoJSON is an output format here; give GeoJSON input",
-        ));
-    }
-    let format =
-        match batch.output_format {
-            Format::Topojson => OutputFormat::TopoJson,
-            Format::Auto | Format::Geojson => OutputFormat::GeoJson,
-            other => {
-                return Err(Failure::input(format!(
-                "--output-format {}: --topology shared writes one document: geojson or topojson",
-                other.to_possible_value().map_or("?".into(), |v| v.get_name().to_string())
-            )))
-            }
-        };
-    validate(&job, Topology::Shared, format).map_err(|e| match e.problem {
-        Problem::RequiresOption {
-            requires, reason, ..
-        } => Failure::input(format!(
-            "--topology shared: {reason}: give {} too",
-            crate::cli::flag(requires)
-        )),
-        other => Failure::input(format!("--topology shared: {other}")),
-    })?;
+    let format = job.format;
     super::set_threads(batch.threads)?;
     if batch.inputs.len() > 1 {
         return Err(Failure::input(

@@ -60,89 +60,8 @@ use arcs::{ArcGraph, ArcUse, InputRing};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 use std::collections::{BTreeSet, HashSet};
-use std::str::FromStr;
 
-/// How the features of a document relate when fitted.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Topology {
-    /// Every line and ring on its own (the default).
-    #[default]
-    PerFeature,
-    /// Polygon rings share their common borders: each fitted once (this module).
-    Shared,
-}
-
-impl FromStr for Topology {
-    type Err = ();
-    fn from_str(s: &str) -> Result<Self, ()> {
-        match s {
-            "per-feature" => Ok(Topology::PerFeature),
-            "shared" => Ok(Topology::Shared),
-            _ => Err(()),
-        }
-    }
-}
-
-/// The document written.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum OutputFormat {
-    /// A GeoJSON FeatureCollection (the default).
-    #[default]
-    GeoJson,
-    /// A TopoJSON topology ([`super::topojson`]); only with [`Topology::Shared`].
-    TopoJson,
-}
-
-impl FromStr for OutputFormat {
-    type Err = ();
-    fn from_str(s: &str) -> Result<Self, ()> {
-        match s {
-            "geojson" => Ok(OutputFormat::GeoJson),
-            "topojson" => Ok(OutputFormat::TopoJson),
-            _ => Err(()),
-        }
-    }
-}
-
-/// Checks that `topology` and `format` go with the job: shared topology needs a tolerance fit,
-/// TopoJSON output needs shared topology.
-///
-/// # Errors
-/// [`Problem::RequiresOption`] or [`Problem::InvalidOption`] naming `topology` or `format`.
-pub fn validate(job: &Job, topology: Topology, format: OutputFormat) -> Result<(), EarthError> {
-    let bad = |option: &'static str, message: &str| {
-        Err(EarthError::new(
-            "",
-            Problem::InvalidOption {
-                option,
-                message: message.into(),
-            },
-        ))
-    };
-    if topology == Topology::Shared && !matches!(job.operation, Operation::FitToTolerance { .. }) {
-        return Err(EarthError::new(
-            "",
-            Problem::RequiresOption {
-                option: "topology",
-                requires: "tolerance_m",
-                reason: "shared topology fits every border to a tolerance",
-            },
-        ));
-    }
-    if topology == Topology::Shared && job.time.fit_in_time.is_some() {
-        return bad(
-            "topology",
-            "shared topology fits polygon rings, which carry no times: drop parameterization time, time_property and spacing_s",
-        );
-    }
-    if format == OutputFormat::TopoJson && topology != Topology::Shared {
-        return bad(
-            "format",
-            "TopoJSON output is made of shared arcs: give topology shared too",
-        );
-    }
-    Ok(())
-}
+pub use super::job::{OutputFormat, Topology};
 
 /// One fitted arc: its rounded spline, its dense output and how well it fits.
 #[derive(Clone, Debug)]
@@ -282,8 +201,10 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         tolerance_m,
     } = &job.operation
     else {
-        validate(job, Topology::Shared, OutputFormat::GeoJson)?;
-        unreachable!("validate refuses other operations");
+        job.clone()
+            .with_topology(Topology::Shared, OutputFormat::GeoJson)
+            .validate()?;
+        unreachable!("validate refuses other operations with shared topology");
     };
     let _scope = job.cancel.enter();
     // Which slots are polygon features; the others are processed as usual.
@@ -523,6 +444,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     let mut input_points_total = 0usize;
     let mut output_points_total = 0usize;
     let mut kept_total: Vec<String> = Vec::new();
+    let mut dropped_total: Vec<String> = Vec::new();
     for (fi, slot) in doc.slots.iter().enumerate() {
         let Some(kind) = polygon_kind[fi] else {
             continue;
@@ -537,22 +459,36 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         let mut parts = Vec::new();
         let mut ring_uses_out = Vec::new();
         let mut kept: Vec<String> = Vec::new();
+        let mut dropped: Vec<String> = Vec::new();
         for (pi, poly) in by_feature[fi].iter().enumerate() {
+            let fitted_ring = |uses: &[ArcUse]| {
+                (!uses.is_empty())
+                    .then(|| ring_lonlat(uses, &fitted))
+                    .filter(|ring| !small_rings::collapsed_lonlat(ring))
+            };
+            // With drop_small_rings, a polygon whose exterior collapses goes with its holes.
+            if job.drop_small_rings && poly.first().is_some_and(|(_, u)| fitted_ring(u).is_none()) {
+                dropped.extend(poly.iter().map(|(ri, _)| sources[*ri].pointer.clone()));
+                continue;
+            }
             // A ring with no arcs (under 3 distinct vertices) or whose fitted outline bounds no
             // area is kept as a triangle of its own vertices or as it came (small_rings), as
             // per-feature fitting keeps it: a TopoJSON output then writes this feature's
             // rings as arcs of their own.
             let mut ll_rings: Vec<Vec<[f64; 2]>> = Vec::with_capacity(poly.len());
+            let mut uses_out = Vec::with_capacity(poly.len());
             for (r, (ri, uses)) in poly.iter().enumerate() {
-                let fitted_ring = (!uses.is_empty())
-                    .then(|| ring_lonlat(uses, &fitted))
-                    .filter(|ring| !small_rings::collapsed_lonlat(ring));
+                let fitted_ring = fitted_ring(uses);
                 let path = if kind == "Polygon" {
                     vec![r]
                 } else {
                     vec![pi, r]
                 };
                 match fitted_ring {
+                    None if job.drop_small_rings => {
+                        dropped.push(sources[*ri].pointer.clone());
+                        continue;
+                    }
                     Some(ring) => {
                         parts.push(json!({
                             "path": path,
@@ -569,6 +505,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
                         ll_rings.push(ring);
                     }
                 }
+                uses_out.push(uses.to_vec());
             }
             if ll_rings.iter().all(|r| is_plain(r)) {
                 out_polys.push(json!(ll_rings));
@@ -581,12 +518,13 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
                     d.iter().all(|p| *p == d[0])
                 };
                 ring_uses_out.push(
-                    poly.iter()
-                        .map(|(_, uses)| {
+                    uses_out
+                        .into_iter()
+                        .map(|uses: Vec<ArcUse>| {
                             let kept: Vec<ArcUse> =
                                 uses.iter().filter(|u| !degenerate(u)).copied().collect();
                             if kept.is_empty() {
-                                uses.to_vec()
+                                uses
                             } else {
                                 kept
                             }
@@ -639,7 +577,11 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
             .filter(|&&a| graph.arcs[a].uses > 1)
             .count();
         kept_total.extend(kept.iter().cloned());
-        let geometry = if out_polys.is_empty() {
+        dropped_total.extend(dropped.iter().cloned());
+        let geometry = if out_polys.is_empty() && !dropped.is_empty() {
+            // Every polygon dropped: the feature stays, its geometry empty.
+            json!({"type": "MultiPolygon", "coordinates": []})
+        } else if out_polys.is_empty() {
             Value::Null
         } else if kind == "Polygon" && out_polys.len() == 1 {
             json!({"type": "Polygon", "coordinates": out_polys.pop().expect("one polygon")})
@@ -677,6 +619,9 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         info.insert("area_change".into(), json!(round_to(area_change, 9)));
         info.insert("antimeridian_split".into(), json!(split_any));
         info.insert("kept_rings".into(), json!(kept));
+        if job.drop_small_rings {
+            info.insert("dropped_rings".into(), json!(dropped));
+        }
         info.insert(
             "tightened_arcs".into(),
             json!(feature_arcs
@@ -696,7 +641,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         props.insert("fit".into(), Value::Object(info));
         out.insert("properties".into(), Value::Object(props));
         features[fi] = Some(Value::Object(out));
-        if !split_any && kept.is_empty() {
+        if !split_any && kept.is_empty() && dropped.is_empty() {
             feature_rings[fi] = Some(ring_uses_out);
         }
         max_two_way = max_two_way.max(tw);
@@ -714,7 +659,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     let stored_once: usize = fitted.iter().map(|a| a.stored_numbers).sum();
     stats.stored_numbers += stored_once;
     let shared_arcs = graph.arcs.iter().filter(|a| a.uses > 1).count();
-    let report = json!({
+    let mut report = json!({
         "topology": "shared",
         "tolerance_m": tolerance_m,
         "tolerance_met": all_met,
@@ -736,6 +681,9 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         "tightened_arcs": tightened,
         "crossings_left": crossings_left.iter().map(|&(a, b)| [a, b]).collect::<Vec<_>>(),
     });
+    if job.drop_small_rings {
+        report["dropped_rings"] = json!(dropped_total);
+    }
     Ok(Coverage {
         features: features
             .into_iter()
@@ -1208,26 +1156,7 @@ mod tests {
     }
 
     #[test]
-    fn options_that_do_not_go_together_are_refused() {
-        let fit = Job::fit(FitOptions::default());
-        let e = validate(&fit, Topology::Shared, OutputFormat::GeoJson).unwrap_err();
-        assert!(matches!(
-            e.problem,
-            Problem::RequiresOption {
-                option: "topology",
-                requires: "tolerance_m",
-                ..
-            }
-        ));
-        let e = validate(&job(10.0), Topology::PerFeature, OutputFormat::TopoJson).unwrap_err();
-        assert!(matches!(
-            e.problem,
-            Problem::InvalidOption {
-                option: "format",
-                ..
-            }
-        ));
-        assert!(validate(&job(10.0), Topology::Shared, OutputFormat::TopoJson).is_ok());
+    fn a_ring_that_bounds_no_area_is_kept() {
         // A ring that bounds no area is kept as it came and listed, as per-feature fitting
         // keeps it.
         let doc = Document::parse(
