@@ -152,8 +152,8 @@ def fit(
     control_points: Optional[int] = None,
     degree: int = 3,
     knots: str = "adaptive",
-    solver: str = "gauss-newton",
-    parameter_correction: bool = True,
+    solver: str = "gls-pia-accelerated",
+    parameter_correction: bool = False,
     samples: Optional[int] = None,
     spacing_m: Optional[float] = None,
     iterations: int = 30,
@@ -182,7 +182,7 @@ def fit(
     metres with as few stored numbers as the fitter finds (not with ``control_points``;
     ``degree`` caps the degrees tried, at most 3); otherwise ``control_points`` (default a
     quarter of the distinct positions), ``degree`` (1 to 5), ``knots`` (``adaptive``,
-    ``geodesic``, ``euclidean``, ``uniform``), ``solver`` (``gauss-newton``, ``gls-pia``),
+    ``geodesic``, ``euclidean``, ``uniform``), ``solver`` (``gls-pia-accelerated``, ``gls-pia``, ``gauss-newton``),
     ``parameter_correction`` (foot-point parameters between solver steps), ``iterations`` and
     ``parameterization`` (``chord``, ``centripetal``, ``uniform``); the defaults are the
     service's (the paper's method: ``knots="geodesic", solver="gls-pia",

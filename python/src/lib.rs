@@ -271,7 +271,7 @@ fn one_geometry(index: usize, wkb: &[u8], job: &Job, key: &str) -> Result<Outcom
 #[pyo3(signature = (
     wkbs, *, tolerance_m=None, control_points=None, degree=3, knots="adaptive",
     iterations=30, parameterization="chord",
-    solver="gauss-newton", parameter_correction=true, samples=None, spacing_m=None, precision=7,
+    solver="gls-pia-accelerated", parameter_correction=false, samples=None, spacing_m=None, precision=7,
     max_samples=100_000, max_control_points=10_000, max_iterations=1_000
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -648,7 +648,7 @@ mod tests {
         let f = FitOptions::faithful();
         assert_eq!(
             (f.knots, f.solver, f.parameter_correction),
-            (KnotPlacement::Adaptive, Solver::GaussNewton, true)
+            (KnotPlacement::Adaptive, Solver::GlsPiaAccelerated, false)
         );
     }
 
