@@ -203,8 +203,8 @@ def fit(
     control_points: Optional[int] = None,
     degree: int = 3,
     knots: str = "adaptive",
-    solver: str = "gauss-newton",
-    parameter_correction: bool = True,
+    solver: str = "gls-pia-accelerated",
+    parameter_correction: bool = False,
     samples: Optional[int] = None,
     spacing_m: Optional[float] = None,
     spacing_s: Optional[float] = None,
@@ -241,8 +241,9 @@ def fit(
       3). Default: none, a fit with ``control_points`` (default a quarter of the distinct
       positions, or half when a quarter leaves a position too far).
     * ``degree`` (1 to 5, default 3), ``knots`` (``adaptive`` default, ``geodesic``,
-      ``euclidean``, ``uniform``), ``solver`` (``gauss-newton`` default, ``gls-pia``),
-      ``parameter_correction`` (foot-point parameters between solver steps, default True),
+      ``euclidean``, ``uniform``), ``solver`` (``gls-pia-accelerated`` default, ``gls-pia``,
+      ``gauss-newton``), ``parameter_correction`` (foot-point parameters between solver steps,
+      default False),
       ``iterations`` (default 30).
     * ``parameterization``: ``chord`` (the default), ``centripetal``, ``uniform`` or ``time``
       (position as a function of time: with ``tolerance_m`` the bound is the synchronized

@@ -791,7 +791,7 @@ mod tests {
         let f = FitOptions::faithful();
         assert_eq!(
             (f.knots, f.solver, f.parameter_correction),
-            (KnotPlacement::Adaptive, Solver::GaussNewton, true)
+            (KnotPlacement::Adaptive, Solver::GlsPiaAccelerated, false)
         );
     }
 

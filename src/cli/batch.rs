@@ -182,13 +182,14 @@ pub(crate) struct FitOptionArgs {
     /// present, else the 4th coordinate of each position]
     #[arg(long, value_name = "NAME", alias = "time_property")]
     time_property: Option<String>,
-    /// Optimiser: gauss-newton (the paper's loss, solved in a few Gauss-Newton steps) or
-    /// gls-pia (the paper's progressive iterative approximation)
-    #[arg(long, value_name = "SOLVER", default_value = "gauss-newton")]
+    /// Optimiser: gls-pia-accelerated (the paper's iteration preconditioned by the banded
+    /// normal matrix: its fixed point in a few passes), gls-pia (the paper's 30 plain
+    /// iterations) or gauss-newton (the exact geodesic least-squares optimum)
+    #[arg(long, value_name = "SOLVER", default_value = "gls-pia-accelerated")]
     solver: Solver,
     /// Move each position's parameter to its foot point on the curve between solver steps
     /// (false: chord-length parameters kept, as in the paper)
-    #[arg(long, value_name = "BOOL", default_value_t = true, action = clap::ArgAction::Set)]
+    #[arg(long, value_name = "BOOL", default_value_t = false, action = clap::ArgAction::Set)]
     parameter_correction: bool,
     /// Fit each curve to this tolerance, in metres: every position within it of the curve as
     /// returned, with as few stored numbers as the fitter finds (not with --control-points;

@@ -233,6 +233,9 @@ pub struct FitMetricsDocument {
 pub struct FitDocument {
     /// The fitted spline.
     pub spline: SplineDocument,
+    /// The solver that made the curve.
+    #[serde(default)]
+    pub solver: crate::sphere::Solver,
     /// The data parameter of each point, in the spline's domain.
     pub parameters: Vec<f64>,
     /// Errors of the returned spline.
@@ -245,6 +248,7 @@ impl From<&FitReport> for FitDocument {
     fn from(r: &FitReport) -> Self {
         FitDocument {
             spline: SplineDocument::from(&r.spline),
+            solver: r.solver,
             parameters: r.parameters.clone(),
             metrics: FitMetricsDocument {
                 max_error_rad: r.metrics.max_error_rad,

@@ -151,7 +151,7 @@ pub fn fit_options(p: &Params, base: FitOptions) -> Result<FitOptions, ApiError>
     )? {
         o.parameterization = x;
     }
-    if let Some(s) = p.get::<Solver>("solver", "gls-pia or gauss-newton")? {
+    if let Some(s) = p.get::<Solver>("solver", "gls-pia-accelerated, gls-pia or gauss-newton")? {
         o.solver = s;
     }
     if let Some(c) = p.get::<bool>("parameter_correction", "true or false")? {

@@ -78,7 +78,7 @@ fn rows(v: &Value) -> Vec<Vec<f64>> {
 fn check_fit_shape(out: &Value, n_points: usize) -> (usize, Vec<f64>, Vec<Vec<f64>>) {
     assert_eq!(
         keys(out),
-        set(&["spline", "parameters", "metrics", "history"])
+        set(&["spline", "solver", "parameters", "metrics", "history"])
     );
     assert_eq!(
         keys(&out["spline"]),

@@ -1,6 +1,7 @@
 //! The integration tests, one binary (one link instead of one per file): each module is one
 //! area, `helpers` is what they share.
 
+mod accelerated;
 mod applications;
 mod beta;
 mod cli_batch;

@@ -115,6 +115,9 @@ pub struct Processed {
     pub errors: Vec<String>,
     /// Largest max error of a feature and its label.
     pub worst: Option<(f64, String)>,
+    /// The fit warnings of the record's features (`properties.fit.warnings`, and those of its
+    /// parts), with the record's position.
+    pub warnings: Vec<String>,
 }
 
 /// A record's label in messages: `in.geojsons: record 3` (`(line 5)` for newline-delimited).
@@ -174,6 +177,23 @@ pub fn process(
 }
 
 impl Processed {
+    /// Copies the fit warnings of a serialised feature (its own and its parts') into
+    /// `warnings`.
+    fn collect_warnings(&mut self, bytes: &[u8], label: &str) {
+        let Ok(v) = serde_json::from_slice::<Value>(bytes) else {
+            return;
+        };
+        let fit = &v["properties"]["fit"];
+        let parts = fit["parts"].as_array().into_iter().flatten();
+        for f in std::iter::once(fit).chain(parts) {
+            for w in f["warnings"].as_array().into_iter().flatten() {
+                if let Some(w) = w.as_str() {
+                    self.warnings.push(format!("{label}: warning: {w}"));
+                }
+            }
+        }
+    }
+
     /// Processes every feature of a parsed record.
     fn document(&mut self, v: Value, label: &str, job: &Job, allow_spline: bool) {
         match Document::parse(v, allow_spline) {
@@ -193,7 +213,12 @@ impl Processed {
             Err(e) => return self.errors.push(format!("{label}: {e}")),
         };
         match serde_json::to_vec(&p.feature) {
-            Ok(bytes) => self.features.push(bytes),
+            Ok(bytes) => {
+                if bytes.windows(11).any(|w| w == b"\"warnings\":") {
+                    self.collect_warnings(&bytes, label);
+                }
+                self.features.push(bytes)
+            }
             Err(e) => return self.errors.push(format!("{label}: cannot serialise: {e}")),
         }
         if p.stats.curves > 0 {
@@ -461,9 +486,9 @@ pub fn run<W: Write>(
                 } => {
                     totals.records += 1;
                     offset = o;
-                    if !processed.errors.is_empty() {
+                    if !processed.errors.is_empty() || !processed.warnings.is_empty() {
                         progress.clear();
-                        for e in &processed.errors {
+                        for e in processed.errors.iter().chain(&processed.warnings) {
                             errors(e);
                         }
                     }

@@ -18,6 +18,7 @@ use super::time::{check_times, times_from_array, LineTimes, TimeFormat, TimeMap,
 use super::{EarthError, InterpolateSettings, JsonOut, Limits, OutputOptions, Problem};
 use crate::document::BetaDocument;
 use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
+use crate::sphere::fit::adaptive_knots::{refine, turning_angles};
 use crate::sphere::fit::default_control_points;
 use crate::sphere::geometry::densify::densify;
 use crate::sphere::knots::KnotPlacement;

@@ -233,24 +233,35 @@ fn certify_chord(
     let mut ts = vec![u, v];
     let mut pts = [pu, pv].concat();
     let mut gs = vec![0.0, 0.0];
-    let mut open = vec![(0usize, 1usize)];
+    // Open sub-intervals with the speed bound of the interval they were split from: a bound
+    // over an interval holds on every part of it, so a part is first judged with its parent's
+    // bound and gets its own (tighter, and the costly step) only when that does not settle it.
+    let mut open = vec![(0usize, 1usize, speed)];
     let mut accepted: f64 = 0.0;
     let mut evaluations = 0;
     loop {
         let mut split = Vec::new();
         let mut worst_open: f64 = 0.0;
-        for &(a, b) in &open {
+        for &(a, b, parent_speed) in &open {
             let (pa, pb) = (&pts[a * dim..(a + 1) * dim], &pts[b * dim..(b + 1) * dim]);
-            let length = curve.speed_bound(ts[a], ts[b]) * (ts[b] - ts[a]);
-            let lip = 0.5 * (gs[a] + gs[b] + length) + ROUNDING_SLACK_RAD;
-            let ell =
-                ellipse_deviation(length, angle_between(pa, pb)) + arc_to_arc_sup(pa, pb, &frame);
-            let bd = lip.min(ell);
+            let chord = angle_between(pa, pb);
+            let sup = arc_to_arc_sup(pa, pb, &frame);
+            let bound_with = |speed: f64| {
+                let length = speed * (ts[b] - ts[a]);
+                let lip = 0.5 * (gs[a] + gs[b] + length) + ROUNDING_SLACK_RAD;
+                lip.min(ellipse_deviation(length, chord) + sup)
+            };
+            let mut own = parent_speed;
+            let mut bd = bound_with(own);
+            if bd > tol {
+                own = curve.speed_bound(ts[a], ts[b]).min(parent_speed);
+                bd = bound_with(own);
+            }
             if bd <= tol || ts[b] - ts[a] <= 1e-13 * ts[a].abs().max(ts[b].abs()).max(1.0) {
                 accepted = accepted.max(bd);
             } else {
                 worst_open = worst_open.max(bd);
-                split.push((a, b));
+                split.push((a, b, own));
             }
         }
         if split.is_empty() {
@@ -259,18 +270,21 @@ fn certify_chord(
         if evaluations + split.len() > cap {
             return (accepted.max(worst_open).min(whole), evaluations);
         }
-        let mids: Vec<f64> = split.iter().map(|&(a, b)| 0.5 * (ts[a] + ts[b])).collect();
+        let mids: Vec<f64> = split
+            .iter()
+            .map(|&(a, b, _)| 0.5 * (ts[a] + ts[b]))
+            .collect();
         let mp = curve.evaluate_many(&mids);
         evaluations += mids.len();
         open.clear();
-        for (k, &(a, b)) in split.iter().enumerate() {
+        for (k, &(a, b, speed)) in split.iter().enumerate() {
             let p = mp.get(k);
             ts.push(mids[k]);
             pts.extend_from_slice(p);
             gs.push(frame.distance_dyn(p));
             let m = ts.len() - 1;
-            open.push((a, m));
-            open.push((m, b));
+            open.push((a, m, speed));
+            open.push((m, b, speed));
         }
     }
 }

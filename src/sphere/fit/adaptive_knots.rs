@@ -338,3 +338,91 @@ fn share_out(mass: &[f64], total: usize) -> Vec<usize> {
     }
     counts
 }
+
+/// One round of error-driven refinement: every knot span (of positive width) holding a data
+/// parameter whose error exceeds `threshold` gets a knot, at most `max_new` spans (the largest
+/// errors first). Where the worst point of the span is a corner (it turns by at least
+/// `corner_angle_rad`, `turns` from [`turning_angles`]) the new knot sits at that point with
+/// multiplicity p (a C0 joint, so the curve may turn there); elsewhere it splits the span
+/// between its two middle data parameters, so that both halves keep at least
+/// [`REFINE_MIN_POINTS`] (a span without data leaves its control points free to swing away from
+/// the line). `None` when no span needs or can take a knot.
+///
+/// The default Earth fit starts from [`place`] at a quarter of the positions and refines where
+/// the curve misses the line by more than a share of its median step, so knots go where the
+/// line needs them rather than everywhere (`earth::curve::fitting`).
+#[allow(clippy::too_many_arguments)]
+pub fn refine(
+    knots: &[f64],
+    p: usize,
+    params: &[f64],
+    errors: &[f64],
+    turns: &[f64],
+    corner_angle_rad: f64,
+    threshold: f64,
+    max_new: usize,
+) -> Option<Vec<f64>> {
+    let n_ctrl = knots.len() - p - 1;
+    // Worst error (and where) and the data parameters per span (span k: knots[k] <= t <
+    // knots[k + 1], p <= k < n_ctrl).
+    let mut worst = vec![0.0f64; knots.len()];
+    let mut worst_at = vec![0usize; knots.len()];
+    let mut first = vec![usize::MAX; knots.len()];
+    let mut count = vec![0usize; knots.len()];
+    let mut k = p;
+    for (j, (&t, &e)) in params.iter().zip(errors).enumerate() {
+        while k + 1 < n_ctrl && t >= knots[k + 1] {
+            k += 1;
+        }
+        if e > worst[k] {
+            worst[k] = e;
+            worst_at[k] = j;
+        }
+        if count[k] == 0 {
+            first[k] = j;
+        }
+        count[k] += 1;
+    }
+    let mut split: Vec<(usize, f64, usize)> = (p..n_ctrl)
+        .filter(|&k| worst[k] > threshold)
+        .filter_map(|k| {
+            let j = worst_at[k];
+            let u = params[j];
+            if turns[j] >= corner_angle_rad && u > knots[k] && u < knots[k + 1] {
+                return Some((k, u, p));
+            }
+            if count[k] < 2 * REFINE_MIN_POINTS {
+                return None;
+            }
+            let mid = first[k] + count[k] / 2;
+            let u = 0.5 * (params[mid - 1] + params[mid]);
+            (u > knots[k] && u < knots[k + 1]).then_some((k, u, 1))
+        })
+        .collect();
+    if max_new == 0 || split.is_empty() {
+        return None;
+    }
+    split.sort_by(|a, b| worst[b.0].total_cmp(&worst[a.0]).then(a.0.cmp(&b.0)));
+    let mut added = 0;
+    split.retain(|s| {
+        added += s.2;
+        added <= max_new
+    });
+    if split.is_empty() {
+        return None;
+    }
+    split.sort_unstable_by_key(|s| s.0);
+    let mut out = Vec::with_capacity(knots.len() + added);
+    let mut s = split.iter().peekable();
+    for (k, &u) in knots.iter().enumerate() {
+        out.push(u);
+        if let Some(&&(_, v, mult)) = s.peek().filter(|x| x.0 == k) {
+            out.extend(std::iter::repeat_n(v, mult));
+            s.next();
+        }
+    }
+    Some(out)
+}
+
+/// A span is split between data parameters only if each half keeps at least this many.
+pub const REFINE_MIN_POINTS: usize = 2;

@@ -108,6 +108,7 @@ pub(crate) fn gauss_newton(
         iterations,
         converged,
         history,
+        solver: super::gls_pia::Solver::GaussNewton,
     }
 }
 

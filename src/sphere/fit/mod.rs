@@ -2,6 +2,7 @@
 //! ([`mod@gls_pia`]), the Gauss–Newton solver beside it, the shared data pass, and the geodesic
 //! error metrics ([`metrics`]).
 
+mod accelerated;
 pub mod adaptive_knots;
 pub mod footpoint;
 mod gauss_newton;

@@ -31,6 +31,10 @@ pub(crate) enum PassMode {
     /// Errors plus the normal equations of the linearised least-squares step: `AᵀA` (banded,
     /// `A_ji = D_i(t_j)`) in `band` and `Aᵀ r` in `moves`, with `r_j = log_{C(t_j)}(q_j)`.
     Normal,
+    /// As [`PassMode::Normal`], but `moves` holds GLS-PIA's error allocation `Σ_j D_i(t_j) δ_j`
+    /// with the paper's `δ_j` (chord direction, geodesic length): accelerated GLS-PIA
+    /// preconditions that update by `AᵀA`.
+    Preconditioned,
     /// Errors plus the Gauss–Newton normal equations with the exact Jacobian of C(t_j) in the
     /// tangent coordinates of each control point (`jacobian.rs`): `JᵀJ` in `band` (unknowns
     /// ordered control by control, `dim − 1` each), `Jᵀ r` in `moves`, the bases in `bases`.
@@ -165,25 +169,31 @@ fn run_pass_kernel<D: Dim, G: Degree>(
                         }
                     }
                 }
-                PassMode::Normal => {
+                PassMode::Normal | PassMode::Preconditioned => {
+                    let chord = mode == PassMode::Preconditioned;
                     out.moves = vec![0.0; local * dim];
                     let mut band = SymmetricBand::zeros(local, p);
                     for (j, &t) in ts.iter().enumerate() {
                         k = frame.span_from(k, t);
                         frame.eval::<D, G, true, true>(d, g, k, t, &mut scratch, &mut c_pt);
                         let q = points.get(offset + j);
-                        let (theta, scale) = log_residual(d, q, &c_pt);
+                        let (theta, scale) = if chord {
+                            error_arc(d, q, &c_pt)
+                        } else {
+                            log_residual(d, q, &c_pt)
+                        };
                         out.errors.add(offset + j, theta);
                         let base = k - p - first_ctrl;
                         let coef = &scratch.contrib;
+                        // r_j = scale · (q − (q·C) C), the log map of q at C; or GLS-PIA's
+                        // δ_j = scale · (q − C), the chord scaled to the geodesic length.
+                        let cos = if chord { 1.0 } else { dot(d, q, &c_pt) };
                         for m in 0..p + 1 {
                             let w = coef[m];
                             for m2 in m..p + 1 {
                                 band.add_upper(base + m, base + m2, w * coef[m2]);
                             }
-                            // r_j = scale · (q − (q·C) C), the log map of q at C.
                             let ws = w * scale;
-                            let cos = dot(d, q, &c_pt);
                             let mv = &mut out.moves[(base + m) * dim..(base + m + 1) * dim];
                             for x in 0..dim {
                                 mv[x] += ws * (q[x] - cos * c_pt[x]);
@@ -240,7 +250,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
             result.moves = vec![0.0; n_ctrl * dim];
             result.weights = vec![0.0; n_ctrl];
         }
-        PassMode::Normal => {
+        PassMode::Normal | PassMode::Preconditioned => {
             result.moves = vec![0.0; n_ctrl * dim];
             result.band = Some(SymmetricBand::zeros(n_ctrl, p));
         }

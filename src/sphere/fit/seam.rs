@@ -133,6 +133,7 @@ pub fn fit_closed(points: &PointSet, options: &FitOptions) -> Result<FitReport, 
         iterations,
         converged: open.converged,
         history,
+        solver: open.solver,
     })
 }
 
