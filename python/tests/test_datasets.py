@@ -30,11 +30,14 @@ def countries():
     return gpd.read_file(SHAPEFILE)
 
 
+@pytest.mark.parametrize("topology", ["per-feature", "shared"])
 @pytest.mark.parametrize("tolerance_m", [100, 1000])
-def test_natural_earth_countries_from_a_shapefile_come_back_whole(countries, tolerance_m, tmp_path):
+def test_natural_earth_countries_from_a_shapefile_come_back_whole(
+    countries, tolerance_m, topology, tmp_path
+):
     gdf = countries
     assert len(gdf) == 177
-    out = spherefit.fit(gdf, tolerance_m=tolerance_m)
+    out = spherefit.fit(gdf, tolerance_m=tolerance_m, topology=topology)
     assert len(out) == len(gdf)
     assert list(out.index) == list(gdf.index)
     assert out["name"].tolist() == gdf["name"].tolist()
@@ -44,7 +47,10 @@ def test_natural_earth_countries_from_a_shapefile_come_back_whole(countries, tol
     invalid_in = set(gdf["name"][~gdf.geometry.is_valid])
     invalid_out = set(out["name"][~out.geometry.is_valid])
     assert invalid_in == {"Sudan"}
-    assert invalid_out <= invalid_in, {n: shapely.is_valid_reason(out.geometry[out["name"] == n].iloc[0]) for n in invalid_out - invalid_in}
+    assert invalid_out <= invalid_in, {
+        n: shapely.is_valid_reason(out.geometry[out["name"] == n].iloc[0])
+        for n in invalid_out - invalid_in
+    }
     # Antarctica stays one region round the South Pole with its area.
     ant = json.loads(out["fit"][out["name"] == "Antarctica"].iloc[0])
     assert abs(ant["area_change"]) < 1e-4 and ant["area_m2"] > 1.2e13
@@ -52,7 +58,9 @@ def test_natural_earth_countries_from_a_shapefile_come_back_whole(countries, tol
     # The same geometries as the CLI on the file written as GeoJSON.
     path = tmp_path / "countries.geojson"
     gdf.to_file(path, driver="GeoJSON")
-    cli = run_cli("fit", "--tolerance-m", tolerance_m, "-q", path)["features"]
+    cli = run_cli("fit", "--tolerance-m", tolerance_m, "--topology", topology, "-q", path)[
+        "features"
+    ]
     assert len(cli) == len(out)
     for i, f in enumerate(cli):
         got = out.geometry.iloc[i]
