@@ -424,13 +424,15 @@ fn natural_earth_countries_as_gis_packages_ship_them_come_back_whole() {
     }
 }
 
-/// The `antimeridian` package's own cut output of two Sentinel-3 swaths: one forced onto the
+/// The `antimeridian` package's own cut output of three Sentinel-3 swaths: one forced onto the
 /// North Pole (its larger side, 163 vertices were lost when it was closed along the smaller
-/// one), one whose parts overlap across ±180 (an output edge spanned 360 degrees). Each comes
-/// back with every vertex within the tolerance both ways, in both modes.
+/// one), one whose parts overlap across ±180 (an output edge spanned 360 degrees), one over
+/// the North Pole that crosses ±180 three times (closed from a crossing below another, the
+/// strips lost a piece, so it was closed along the South Pole instead). Each comes back with
+/// every vertex within the tolerance both ways, in both modes.
 #[test]
 fn swaths_cut_onto_their_larger_side_or_overlapping_come_back_whole() {
-    for name in ["force-north-pole", "overlap"] {
+    for name in ["force-north-pole", "overlap", "issues-164"] {
         let g = load(&format!("antimeridian/{name}.cut.json"));
         let valid = valid_in_plane(&g);
         for mode in ["per-feature", "shared"] {

@@ -101,19 +101,26 @@ fn close_around_pole(
     winding: f64,
     flip: bool,
     pole_hint: Option<f64>,
+    nearest_start: bool,
 ) -> Vec<Position> {
     let n = ring.len() - 1; // the last vertex is the first one turned once round
-    let start = (0..n).find(|&i| on_cut_line(ring[i][0])).unwrap_or(0);
-    let mut turned: Vec<Position> = Vec::with_capacity(n + 4);
-    turned.extend_from_slice(&ring[start..n]);
-    turned.extend(ring[..start].iter().map(|p| [p[0] + winding, p[1], p[2]]));
-    let target = if winding > 0.0 { -180.0 } else { 180.0 };
-    let shift = target - turned[0][0];
-    for p in turned.iter_mut() {
-        p[0] += shift;
-    }
-    let first = turned[0];
-    let end = [first[0] + winding, first[1], first[2]];
+                            // The ring turned to start at vertex `start` (on a cut line), shifted so it spans exactly
+                            // [-180, 180], with its end (the start turned once round) appended.
+    let turn = |start: usize| -> Vec<Position> {
+        let mut turned: Vec<Position> = Vec::with_capacity(n + 4);
+        turned.extend_from_slice(&ring[start..n]);
+        turned.extend(ring[..start].iter().map(|p| [p[0] + winding, p[1], p[2]]));
+        let target = if winding > 0.0 { -180.0 } else { 180.0 };
+        let shift = target - turned[0][0];
+        for p in turned.iter_mut() {
+            p[0] += shift;
+        }
+        let first = turned[0];
+        turned.push([first[0] + winding, first[1], first[2]]);
+        turned
+    };
+    let crossings: Vec<usize> = (0..n).filter(|&i| on_cut_line(ring[i][0])).collect();
+    let mut turned = turn(crossings.first().copied().unwrap_or(0));
     // The pole on the smaller side, whichever way the ring turns, as rings that do not go
     // round a pole are read: orientation is only a SHOULD in RFC 7946, and data from
     // shapefiles turns the other way. (A cap cut along its pole, Antarctica or an Arctic
@@ -122,7 +129,6 @@ fn close_around_pole(
     // that pole, or with both, along the one on its left (RFC 7946 orientation). A ring
     // rejoined from a cut form keeps the pole that form was closed along (`pole_hint`), even
     // on its larger side: that is the region the data says it is.
-    turned.push(end);
     let at = |lat: f64| turned.iter().any(|p| p[1] == lat);
     let north = match (at(90.0), at(-90.0), pole_hint) {
         (true, false, _) => true,
@@ -132,6 +138,32 @@ fn close_around_pole(
         (false, false, None) => north_side_area(&turned) <= 2.0 * std::f64::consts::PI,
     };
     let pole = if north != flip { 90.0 } else { -90.0 };
+    // `nearest_start`: a ring crossing ±180 more than once is closed from its crossing nearest
+    // that pole, so that the meridian from there to the pole meets no other part of the ring
+    // (from another crossing it may cut through the ring, and the strips lose a piece).
+    // Only crossings in the direction the ring turns qualify (where a ring folds back, the
+    // crossings between go the other way).
+    let x_at = |k: isize| -> f64 {
+        let turns = k.div_euclid(n as isize);
+        ring[k.rem_euclid(n as isize) as usize][0] + winding * turns as f64
+    };
+    let forward = |i: usize| -> bool {
+        let (i, x) = (i as isize, ring[i][0]);
+        let next = (1..=n as isize).map(|d| x_at(i + d)).find(|&v| v != x);
+        let prev = (1..=n as isize).map(|d| x_at(i - d)).find(|&v| v != x);
+        matches!((prev, next), (Some(p), Some(q)) if (q - x) * winding > 0.0 && (x - p) * winding > 0.0)
+    };
+    let forward_crossings: Vec<usize> = crossings.iter().copied().filter(|&i| forward(i)).collect();
+    if let Some(&nearest) = forward_crossings
+        .iter()
+        .max_by(|&&i, &&j| (pole * ring[i][1]).total_cmp(&(pole * ring[j][1])))
+    {
+        if nearest_start && forward_crossings.len() > 1 && Some(&nearest) != crossings.first() {
+            turned = turn(nearest);
+        }
+    }
+    let first = turned[0];
+    let end = turned[turned.len() - 1];
     turned.push([end[0], pole, end[2]]);
     turned.push([first[0], pole, first[2]]);
     turned.push(first);
@@ -216,16 +248,22 @@ fn split_counting_losses(
     round: &dyn Fn(f64) -> f64,
     pole: Option<f64>,
 ) -> (Vec<Vec<Vec<Position>>>, usize) {
-    let (out, lost, polar) = split_closing(rings, round, false, pole);
+    let (out, lost, polar) = split_closing(rings, round, false, pole, false);
     if lost == 0 || !polar {
         return (out, lost);
     }
-    let (other, lost_other, _) = split_closing(rings, round, true, pole);
-    if lost_other < lost {
-        (other, lost_other)
-    } else {
-        (out, lost)
+    // The same pole closed from the ring's crossing nearest it, then the other pole.
+    let mut best = (out, lost);
+    for (flip, nearest) in [(false, true), (true, false), (true, true)] {
+        let (other, lost_other, _) = split_closing(rings, round, flip, pole, nearest);
+        if lost_other < best.1 {
+            best = (other, lost_other);
+            if best.1 == 0 {
+                break;
+            }
+        }
     }
+    best
 }
 
 /// [`split_polygon`] with rings around a pole closed along the pole on their left (`flip`:
@@ -236,6 +274,7 @@ fn split_closing(
     round: &dyn Fn(f64) -> f64,
     flip: bool,
     pole: Option<f64>,
+    nearest_start: bool,
 ) -> (Vec<Vec<Vec<Position>>>, usize, bool) {
     let rings: Vec<&Vec<Position>> = rings.iter().filter(|r| r.len() >= 2).collect();
     if rings.is_empty() {
@@ -247,7 +286,7 @@ fn split_closing(
     for ring in &rings {
         let (mut u, winding, crossed) = unwrap(ring);
         if winding.abs() > 180.0 {
-            u = close_around_pole(u, winding, flip, pole);
+            u = close_around_pole(u, winding, flip, pole, nearest_start);
             any = true;
             polar = true;
         }
