@@ -73,7 +73,7 @@ pub enum Problem {
         max: usize,
     },
     /// A count option (`samples`, `at`, `control_points`, `iterations`) outside `min..=max`,
-    /// where `max` is the limit of [`Limits`] that bounds it. The message does not say whose
+    /// where `max` is the limit of [`Limits`](super::Limits) that bounds it. The message does not say whose
     /// limit it is: the service and the command line add that.
     #[error("{option}: {}", count_out_of_range_text(option, *value, *min, *max))]
     CountOutOfRange {

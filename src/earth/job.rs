@@ -96,7 +96,7 @@ impl Default for OutputOptions {
     }
 }
 
-/// Fitting and evaluating tracks in time ([`time`]).
+/// Fitting and evaluating tracks in time ([`time`](super::time)).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TimeOptions {
     /// `parameterization=time`: fit position as a function of time, reading the times from
@@ -108,7 +108,7 @@ pub struct TimeOptions {
     pub at_unix_s: Option<Vec<f64>>,
 }
 
-/// Everything [`process_feature`] needs: the operation, the output options, the limits and a
+/// Everything [`process_feature`](super::process_feature) needs: the operation, the output options, the limits and a
 /// cancellation token (checked before each curve and inside the fitters).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Job {
@@ -118,7 +118,7 @@ pub struct Job {
     pub output: OutputOptions,
     /// Bounds checked before the work they bound.
     pub limits: Limits,
-    /// Stops the work ([`Problem::Fit`] with [`SphereError::Cancelled`]) when cancelled or past
+    /// Stops the work ([`Problem::Fit`] with [`SphereError::Cancelled`](crate::sphere::SphereError::Cancelled)) when cancelled or past
     /// its deadline; the default inherits the token entered on the calling thread.
     pub cancel: Cancel,
     /// Fits in time and evaluation at times.
