@@ -9,7 +9,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use spherefit::sphere::bench_hooks::accumulate_pass_dynamic;
-use spherefit::sphere::knots::{greville_control_points, parameters, place_knots};
+use spherefit::sphere::fit::knots::{greville_control_points, parameters, place_knots};
 use spherefit::sphere::{
     gls_pia_iteration, KnotPlacement, Parameterization, PointSet, SphericalBSpline, StepRule,
 };

@@ -14,13 +14,13 @@
 //! fitted as position against time ([`fit_to_tolerance`] with the times as parameters, so the
 //! vertex error is the synchronized distance, SED) at SED 5, 10, 25 and 100 m, against the
 //! time-aware Douglas–Peucker ([`synchronized_douglas_peucker`], TD-TR) at the same bound.
-//! Bytes per hour of track: the coding of [`spherefit::sphere::coding`] (angles at T/10) plus
+//! Bytes per hour of track: the coding of [`spherefit::sphere::compress::coding`] (angles at T/10) plus
 //! the times at 1 s — for the spline the start and the duration (two varints; its knots are
 //! already in the stream), for TD-TR the start and each kept vertex's delta (varints).
 //!
 //! Per method: **numbers** as `fit_to_tolerance` counts them (2 per control point or vertex,
 //! one per stored knot, one for the spline's degree); **bytes** in the one coding of
-//! [`spherefit::sphere::coding`] (angles at T/10, delta + zigzag varints; a polyline is a
+//! [`spherefit::sphere::compress::coding`] (angles at T/10, delta + zigzag varints; a polyline is a
 //! degree-1 curve); the **certified two-way distance** to the input line with ordered matching
 //! ([`two_way_distance`]; the spline's is the fitter's own, the polylines' are matched at the
 //! feet of the input points, [`subset_curve`]), proven within T, proven over T, or undecided at
@@ -29,11 +29,11 @@
 //! order, so it can exceed T for them (GPS points that step backwards).
 
 use spherefit::earth::{lonlat_to_unit, EARTH_RADIUS_M};
-use spherefit::sphere::coding::{encode_curve, encode_polyline, quantum_for_tolerance};
-use spherefit::sphere::optimal::{optimal_subset, subset_curve};
-use spherefit::sphere::simplify::{douglas_peucker, synchronized_douglas_peucker};
-use spherefit::sphere::tolerance::polyline_numbers;
-use spherefit::sphere::two_way::{two_way_distance, TwoWayOptions};
+use spherefit::sphere::certify::two_way::{two_way_distance, TwoWayOptions};
+use spherefit::sphere::compress::coding::{encode_curve, encode_polyline, quantum_for_tolerance};
+use spherefit::sphere::compress::optimal::{optimal_subset, subset_curve};
+use spherefit::sphere::compress::simplify::{douglas_peucker, synchronized_douglas_peucker};
+use spherefit::sphere::compress::tolerance::polyline_numbers;
 use spherefit::sphere::{fit_to_tolerance, PointSet, SphericalBSpline, ToleranceOptions};
 use std::time::Instant;
 
@@ -102,7 +102,7 @@ fn smooth_track() -> Line {
 fn flight() -> Line {
     let a = lonlat_to_unit(-73.78, 40.64);
     let b = lonlat_to_unit(-0.45, 51.47);
-    let theta = spherefit::sphere::point::angle_between(&a, &b);
+    let theta = spherefit::sphere::geometry::point::angle_between(&a, &b);
     let n = (theta * EARTH_RADIUS_M / 1000.0) as usize;
     // Unit normal of the great circle, for the lateral offset.
     let mut nrm = [
@@ -115,7 +115,7 @@ fn flight() -> Line {
     let rows: Vec<[f64; 3]> = (0..=n)
         .map(|i| {
             let s = i as f64 / n as f64;
-            let p = spherefit::sphere::point::slerp(&a, &b, s).unwrap();
+            let p = spherefit::sphere::geometry::point::slerp(&a, &b, s).unwrap();
             let dev = 60_000.0 / EARTH_RADIUS_M
                 * (std::f64::consts::PI * s).sin().powi(2)
                 * (3.0 * std::f64::consts::PI * s).sin();
@@ -640,8 +640,8 @@ fn polyline_sed(line: &TimedLine, kept: &[usize]) -> f64 {
         let (a, b) = (line.points.get(w[0]), line.points.get(w[1]));
         for j in w[0]..=w[1] {
             let f = (line.times[j] - line.times[w[0]]) / (line.times[w[1]] - line.times[w[0]]);
-            let c = spherefit::sphere::point::slerp(a, b, f).unwrap();
-            worst = worst.max(spherefit::sphere::point::angle_between(
+            let c = spherefit::sphere::geometry::point::slerp(a, b, f).unwrap();
+            worst = worst.max(spherefit::sphere::geometry::point::angle_between(
                 line.points.get(j),
                 &c,
             ));

@@ -7,7 +7,7 @@
 
 use spherefit::sphere::fit::adaptive_knots::{place, turning_angles, AdaptiveKnots};
 use spherefit::sphere::fit::default_control_points;
-use spherefit::sphere::knots::parameters;
+use spherefit::sphere::fit::knots::parameters;
 use spherefit::sphere::Parameterization;
 use spherefit::sphere::{fit, FitOptions, KnotPlacement, PointSet, Solver};
 use std::time::Instant;
@@ -155,7 +155,7 @@ fn main() {
                 let i = r.metrics.max_error_index;
                 let turns = turning_angles(&pts);
                 let gap = |a: usize, b: usize| {
-                    spherefit::sphere::point::angle_between(pts.get(a), pts.get(b)) * R
+                    spherefit::sphere::geometry::point::angle_between(pts.get(a), pts.get(b)) * R
                 };
                 eprintln!(
                     "{vn}: worst at {i} t={:.5} turn {:.0} deg, gaps {:.0} {:.0} m",
@@ -180,10 +180,12 @@ fn main() {
             ts.push(1.0);
             let c = r.spline.evaluate_many(&ts);
             let len: f64 = (1..c.len())
-                .map(|i| spherefit::sphere::point::angle_between(c.get(i - 1), c.get(i)))
+                .map(|i| spherefit::sphere::geometry::point::angle_between(c.get(i - 1), c.get(i)))
                 .sum();
             let dl: f64 = (1..pts.len())
-                .map(|i| spherefit::sphere::point::angle_between(pts.get(i - 1), pts.get(i)))
+                .map(|i| {
+                    spherefit::sphere::geometry::point::angle_between(pts.get(i - 1), pts.get(i))
+                })
                 .sum();
             line += &format!(
                 " {vn} {:.0}/{:.0} m len {:.2} {:.0}ms |",

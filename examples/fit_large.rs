@@ -5,7 +5,7 @@
 //!
 //! `cargo run --release --example fit_large -- 1000000 2000 gauss-newton [--dump DIR]`
 
-use spherefit::sphere::knots::{parameters, place_knots};
+use spherefit::sphere::fit::knots::{parameters, place_knots};
 use spherefit::sphere::{fit, FitOptions, KnotPlacement, Parameterization, PointSet, Solver};
 use std::io::Write;
 use std::time::Instant;

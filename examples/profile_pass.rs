@@ -1,7 +1,7 @@
 //! Runs GLS-PIA iterations on the bench's S^2 input for profiling with callgrind:
 //! `valgrind --tool=callgrind target/release/examples/profile_pass 100000 2000 3`.
 
-use spherefit::sphere::knots::{greville_control_points, parameters, place_knots};
+use spherefit::sphere::fit::knots::{greville_control_points, parameters, place_knots};
 use spherefit::sphere::{
     gls_pia_iteration, KnotPlacement, Parameterization, PointSet, SphericalBSpline, StepRule,
 };

@@ -4,7 +4,7 @@ use super::{read_json, write_json, Failure};
 use crate::document::pointer;
 use crate::document::{curve_from_json, InterpolationDocument};
 use crate::document::{tolerance_document, FitDocument, PointsInput, SamplesDocument};
-use crate::sphere::tolerance::{fit_to_tolerance, ToleranceOptions};
+use crate::sphere::compress::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::SphericalCurve;
 use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, Solver, StepRule};
 use crate::sphere::{interpolate, BetaSolver, InputSite, InterpolationOptions, SphereError};
@@ -148,7 +148,7 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
     write_json(&FitDocument::from(&report))
 }
 
-/// `sphere fit --tolerance-rad`: the tolerance fitter of `sphere::tolerance`. `--degree` caps
+/// `sphere fit --tolerance-rad`: the tolerance fitter of `sphere::compress::tolerance`. `--degree` caps
 /// the degrees tried (1 ..= degree, at most 3).
 fn tolerance_cmd(
     input: &PointsInput,

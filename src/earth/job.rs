@@ -61,7 +61,7 @@ pub enum Operation {
     /// Fit a spherical B-spline (GLS-PIA) to each line and ring.
     Fit(FitOptions),
     /// Fit each line and ring to a tolerance in metres with
-    /// [`crate::sphere::tolerance::fit_to_tolerance`]: every position within `tolerance_m` of
+    /// [`crate::sphere::compress::tolerance::fit_to_tolerance`]: every position within `tolerance_m` of
     /// the curve as returned (control points rounded), with as few stored numbers as the fitter
     /// finds. Of `options`, `degree` caps the degrees tried (1 to 3) and `parameterization`
     /// gives the starting parameters; `control_points`, `knots`, `iterations` and `solver` are
@@ -346,7 +346,7 @@ impl Job {
                 }
             }
             Operation::Interpolate(s) => {
-                let (lo, hi) = crate::sphere::beta::BETA1_RANGE;
+                let (lo, hi) = crate::sphere::interpolate::beta::BETA1_RANGE;
                 if !(s.beta1.is_finite() && s.beta1 >= lo && s.beta1 <= hi) {
                     return bad(
                         "beta1",
@@ -408,12 +408,12 @@ pub fn check_fit_options(o: &FitOptions, limits: &Limits) -> Result<(), EarthErr
     check_target_max_error_rad(o.target_max_error_rad)
 }
 
-/// The spline degree: 1 to [`crate::sphere::bspline::MAX_DEGREE`].
+/// The spline degree: 1 to [`crate::sphere::curve::bspline::MAX_DEGREE`].
 ///
 /// # Errors
 /// [`Problem::InvalidOption`] naming `degree`.
 pub fn check_degree(degree: usize) -> Result<(), EarthError> {
-    let max_degree = crate::sphere::bspline::MAX_DEGREE;
+    let max_degree = crate::sphere::curve::bspline::MAX_DEGREE;
     if degree == 0 || degree > max_degree {
         return Err(invalid_option(
             "degree",

@@ -5,7 +5,7 @@
 //!   arc length, measured on a fine pre-sampling), ends included.
 //! * [`Sampling::SpacingAndSamples`]: both at once: at most `spacing_m` apart and at least
 //!   `samples` points (evenly spaced in arc length).
-//! * [`Sampling::Auto`] (default): [`crate::sphere::dense::sample_within`]: chords halved only
+//! * [`Sampling::Auto`] (default): [`crate::sphere::certify::dense::sample_within`]: chords halved only
 //!   where a proven bound of their distance to the curve exceeds a tolerance, so bends get many
 //!   points and straight stretches few. The tolerance is [`AUTO_DEVIATION_FRACTION`] of the
 //!   fit's max error, and at least [`AUTO_DEVIATION_FLOOR_M`]. The reported deviation is that
@@ -97,7 +97,7 @@ fn deviation(a: &[f64; 3], b: &[f64; 3], m: &[f64; 3]) -> f64 {
     ];
     let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
     if len < 1e-15 {
-        return crate::sphere::point::angle_between(a, m);
+        return crate::sphere::geometry::point::angle_between(a, m);
     }
     let s = (n[0] * m[0] + n[1] * m[1] + n[2] * m[2]) / len;
     s.clamp(-1.0, 1.0).asin().abs()
@@ -230,7 +230,7 @@ fn by_arc_length(
     cum.push(0.0);
     for w in pts.windows(2) {
         let prev = *cum.last().expect("non-empty");
-        cum.push(prev + crate::sphere::point::angle_between(&w[0], &w[1]));
+        cum.push(prev + crate::sphere::geometry::point::angle_between(&w[0], &w[1]));
     }
     let total = *cum.last().expect("non-empty");
     let needed_f = ((total / spacing_rad).ceil() + 1.0).max(min_count as f64);
@@ -274,14 +274,15 @@ pub const AUTO_EVALUATIONS_PER_SPAN: usize = 512;
 /// See [`AUTO_EVALUATIONS_PER_SPAN`].
 pub const AUTO_MIN_EVALUATIONS: usize = 262_144;
 
-/// Certified adaptive sampling ([`crate::sphere::dense::sample_within_budget`]).
+/// Certified adaptive sampling ([`crate::sphere::certify::dense::sample_within_budget`]).
 fn adaptive(curve: &dyn SphericalCurve, tol: f64, start: usize, max_samples: usize) -> DenseCurve {
     let spans = curve.breaks().len() + 1;
     let budget = AUTO_EVALUATIONS_PER_SPAN
         .saturating_mul(spans)
         .max(AUTO_MIN_EVALUATIONS)
         .min(8usize.saturating_mul(max_samples.max(2)));
-    let d = crate::sphere::dense::sample_within_budget(curve, tol, start, max_samples, budget);
+    let d =
+        crate::sphere::certify::dense::sample_within_budget(curve, tol, start, max_samples, budget);
     DenseCurve {
         points: d.points.iter().map(|p| [p[0], p[1], p[2]]).collect(),
         params: d.params,
@@ -325,7 +326,7 @@ mod tests {
         let steps: Vec<f64> = d
             .points
             .windows(2)
-            .map(|w| rad_to_m(crate::sphere::point::angle_between(&w[0], &w[1])))
+            .map(|w| rad_to_m(crate::sphere::geometry::point::angle_between(&w[0], &w[1])))
             .collect();
         let (lo, hi) = steps
             .iter()
@@ -371,7 +372,7 @@ mod tests {
             let q = c.evaluate_many(&ts);
             for k in 0..q.len() {
                 let (a, b) = (&d.points[j], &d.points[j + 1]);
-                let dev = crate::sphere::simplify::distance_to_arc(q.get(k), a, b);
+                let dev = crate::sphere::compress::simplify::distance_to_arc(q.get(k), a, b);
                 assert!(
                     dev <= d.max_deviation_rad,
                     "chord {j}: {dev} > {}",

@@ -12,27 +12,19 @@ pub mod geometry;
 pub mod interpolate;
 pub(crate) mod linalg;
 
-// The flat module paths from before the folders, kept so code written against them compiles.
-pub use certify::{bounds, dense, two_way};
-pub use compress::{coding, optimal, simplify, tolerance};
-pub use curve::{bezier, bspline};
-pub use fit::{knots, metrics};
-pub use geometry::point;
-pub use interpolate::beta;
-
-pub use beta::{interpolate, BetaInterpolation, BetaSolver, InterpolationOptions};
-pub use bezier::SphericalBezier;
-pub use bspline::SphericalBSpline;
+pub use compress::tolerance::{fit_to_tolerance, KnotRule, ToleranceFit, ToleranceOptions};
 pub use curve::beta::SphericalBetaSpline;
+pub use curve::bezier::SphericalBezier;
+pub use curve::bspline::SphericalBSpline;
 pub use curve::AnyCurve;
 pub use curve::SphericalCurve;
+pub use fit::knots::{KnotPlacement, Parameterization};
+pub use fit::metrics::ErrorMetrics;
 pub use fit::{
     fit, gls_pia, gls_pia_iteration, FitOptions, FitReport, IterationError, Solver, StepRule,
 };
-pub use knots::{KnotPlacement, Parameterization};
-pub use metrics::ErrorMetrics;
-pub use point::PointSet;
-pub use tolerance::{fit_to_tolerance, KnotRule, ToleranceFit, ToleranceOptions};
+pub use geometry::point::PointSet;
+pub use interpolate::beta::{interpolate, BetaInterpolation, BetaSolver, InterpolationOptions};
 
 /// Everything that can be wrong with input to the math core. Each variant carries what a user
 /// needs to find and fix the offending value; indices are 0-based positions in the input.

@@ -6,7 +6,7 @@
 
 use crate::helpers::{lonlat_to_unit, read_fixture_json};
 use serde_json::Value;
-use spherefit::sphere::knots::{parameters, Parameterization};
+use spherefit::sphere::fit::knots::{parameters, Parameterization};
 use spherefit::sphere::{fit, FitOptions, KnotPlacement, PointSet, Solver};
 
 fn rows(v: &Value) -> Vec<Vec<f64>> {

@@ -13,7 +13,7 @@
 use crate::helpers::{
     angle, dot, lonlat_to_unit, max_norm_deviation, read_fixture_json, EARTH_RADIUS_M,
 };
-use spherefit::sphere::point::PointSet;
+use spherefit::sphere::geometry::point::PointSet;
 use spherefit::sphere::{fit, FitOptions, FitReport, KnotPlacement, SphericalCurve};
 
 /// Rows of numbers from a JSON array of arrays.

@@ -5,7 +5,7 @@
 use crate::helpers::run_spherefit;
 use proptest::prelude::*;
 use spherefit::document::curve_from_json;
-use spherefit::sphere::point::{angle_between, slerp};
+use spherefit::sphere::geometry::point::{angle_between, slerp};
 use spherefit::sphere::AnyCurve;
 use spherefit::sphere::{
     interpolate, BetaSolver, InterpolationOptions, PointSet, SphereError, SphericalBetaSpline,

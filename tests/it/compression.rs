@@ -7,11 +7,11 @@
 
 use crate::helpers::{angle as ang, distance_to_arc as dist_to_arc, read_fixture_json};
 use crate::helpers::{unit3 as unit, EARTH_RADIUS_M};
-use spherefit::sphere::coding::{
+use spherefit::sphere::compress::coding::{
     decode_curve, encode_curve, encode_polyline, quantum_for_tolerance,
 };
-use spherefit::sphere::optimal::optimal_subset;
-use spherefit::sphere::simplify::douglas_peucker;
+use spherefit::sphere::compress::optimal::optimal_subset;
+use spherefit::sphere::compress::simplify::douglas_peucker;
 use spherefit::sphere::{fit_to_tolerance, KnotRule, PointSet, ToleranceOptions};
 
 const TOLERANCES_M: [f64; 5] = [1.0, 5.0, 25.0, 100.0, 500.0];

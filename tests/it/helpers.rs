@@ -1,8 +1,8 @@
 //! Helpers shared by the integration tests: fixture access, running the binary, deterministic
 //! pseudo-random numbers, unit vectors, knot vectors and known splines to sample from.
 
-pub use spherefit::sphere::bspline::clamped_uniform_knots;
-use spherefit::sphere::point::{exp_map, PointSet};
+pub use spherefit::sphere::curve::bspline::clamped_uniform_knots;
+use spherefit::sphere::geometry::point::{exp_map, PointSet};
 use spherefit::sphere::SphericalBSpline;
 use std::io::{BufRead, BufReader, Lines, Write};
 use std::net::SocketAddr;

@@ -8,7 +8,7 @@
 //! margin of about 2.
 
 use crate::helpers::{angle, clamped_uniform_knots, sph, spline};
-use spherefit::sphere::point::{slerp, PointSet};
+use spherefit::sphere::geometry::point::{slerp, PointSet};
 use spherefit::sphere::{fit, FitOptions, FitReport, KnotPlacement, Solver, SphericalBSpline};
 use std::f64::consts::PI;
 

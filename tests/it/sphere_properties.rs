@@ -12,9 +12,9 @@ use crate::helpers::{
     self, angle, clamped_uniform_knots, dot, norm, random_walk, spline, unit, SplitMix64,
 };
 use proptest::prelude::*;
-use spherefit::sphere::knots::greville_control_points;
-use spherefit::sphere::metrics::measure;
-use spherefit::sphere::point::{angle_between, exp_map, log_map, slerp, PointSet};
+use spherefit::sphere::fit::knots::greville_control_points;
+use spherefit::sphere::fit::metrics::measure;
+use spherefit::sphere::geometry::point::{angle_between, exp_map, log_map, slerp, PointSet};
 use spherefit::sphere::{fit, FitOptions, KnotPlacement, SphericalBSpline, SphericalCurve};
 
 /// Rounding-level tolerance (norms, endpoint hits, `Σ D_i P_i = C`): about 4500 ulps of 1.0.

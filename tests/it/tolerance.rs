@@ -4,8 +4,8 @@
 //! distance is recomputed independently in `two_way.rs`).
 
 use crate::helpers::{read_fixture_json, EARTH_RADIUS_M};
-use spherefit::sphere::simplify::{douglas_peucker, max_deviation};
-use spherefit::sphere::tolerance::{polyline_numbers, stored_numbers};
+use spherefit::sphere::compress::simplify::{douglas_peucker, max_deviation};
+use spherefit::sphere::compress::tolerance::{polyline_numbers, stored_numbers};
 use spherefit::sphere::{
     fit_to_tolerance, KnotRule, PointSet, SphericalBSpline, ToleranceFit, ToleranceOptions,
 };

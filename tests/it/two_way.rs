@@ -7,7 +7,7 @@
 
 use crate::helpers::{angle as ang, distance_to_arc as dist_to_arc, read_fixture_json};
 use crate::helpers::{unit3 as unit, EARTH_RADIUS_M};
-use spherefit::sphere::dense::sample_within;
+use spherefit::sphere::certify::dense::sample_within;
 use spherefit::sphere::{fit_to_tolerance, PointSet, SphericalBSpline, ToleranceOptions};
 
 const TOLERANCES_M: [f64; 5] = [1.0, 5.0, 25.0, 100.0, 500.0];
@@ -275,7 +275,7 @@ fn a_noisy_track_with_jumps_gets_a_compact_polyline_like_fit() {
     check_all(std::slice::from_ref(&line));
     let tol = 100.0 / EARTH_RADIUS_M;
     let fit = fit_to_tolerance(&line.points, None, tol, &ToleranceOptions::default()).unwrap();
-    let dp = spherefit::sphere::simplify::douglas_peucker(&line.points, tol).len();
+    let dp = spherefit::sphere::compress::simplify::douglas_peucker(&line.points, tol).len();
     assert!(fit.curve_length_ratio <= 1.0, "{}", fit.curve_length_ratio);
     assert!(
         fit.stored_numbers <= 2 * 2 * dp,

@@ -194,7 +194,7 @@ pub fn fit_line(
     };
     let mut m_best = measured(r)?;
     let input_len = polyline_length(&points);
-    let wanders = |tw: &crate::sphere::two_way::TwoWayDistance, max_rad: f64| {
+    let wanders = |tw: &crate::sphere::certify::two_way::TwoWayDistance, max_rad: f64| {
         tw.upper_rad > WANDER_DISTANCE_SHARE * max_rad.max(m_to_rad(1.0))
             || tw.curve_length_rad > WANDER_LENGTH_RATIO * input_len
     };

@@ -17,17 +17,17 @@ use super::sampling::{sample_at, time_parameters};
 use super::time::{check_times, times_from_array, LineTimes, TimeFormat, TimeMap, TimeOrigin};
 use super::{EarthError, InterpolateSettings, JsonOut, Limits, OutputOptions, Problem};
 use crate::document::BetaDocument;
-use crate::sphere::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
-use crate::sphere::fit::adaptive_knots::{refine, turning_angles};
-use crate::sphere::fit::default_control_points;
-use crate::sphere::geometry::densify::densify;
-use crate::sphere::knots::KnotPlacement;
-use crate::sphere::metrics::pointwise_errors;
-use crate::sphere::point::{angle_between, ANTIPODAL_MARGIN_RAD};
-use crate::sphere::tolerance::{
+use crate::sphere::certify::two_way::{polyline_length, two_way_distance, TwoWayOptions};
+use crate::sphere::compress::tolerance::{
     fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions, MAX_LENGTH_RATIO,
 };
-use crate::sphere::two_way::{polyline_length, two_way_distance, TwoWayOptions};
+use crate::sphere::fit::adaptive_knots::{refine, turning_angles};
+use crate::sphere::fit::default_control_points;
+use crate::sphere::fit::knots::KnotPlacement;
+use crate::sphere::fit::metrics::pointwise_errors;
+use crate::sphere::geometry::densify::densify;
+use crate::sphere::geometry::point::{angle_between, ANTIPODAL_MARGIN_RAD};
+use crate::sphere::interpolate::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
 use crate::sphere::AnyCurve;
 use crate::sphere::{fit, FitOptions, InputSite, PointSet, SphereError, SphericalBSpline};
 use serde_json::{json, Map, Value};
@@ -202,7 +202,7 @@ mod tests {
             _ => unreachable!(),
         };
         let pts = parse_positions(&line, "").unwrap().points;
-        let params = crate::sphere::knots::parameters(
+        let params = crate::sphere::fit::knots::parameters(
             &PointSet::try_from_rows(&pts).unwrap(),
             crate::sphere::Parameterization::Chord,
         )

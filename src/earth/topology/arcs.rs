@@ -17,7 +17,7 @@
 //!   neighbour's side of a border, an enclave's shell and its surrounding hole) is the same arc,
 //!   used reversed.
 
-use crate::sphere::point::angle_between;
+use crate::sphere::geometry::point::angle_between;
 // FxHash: the vertex snapping looks up 27 cells per input point; SipHash was a fifth of the
 // graph's build on the 10m countries. No map is iterated, so the order of nothing depends on it.
 use rustc_hash::FxHashMap as HashMap;

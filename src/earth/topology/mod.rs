@@ -8,8 +8,8 @@
 //!    reversed reused reversed). Other features (lines, points, `null`) are processed one by
 //!    one as without `topology=shared`.
 //! 2. Each arc is fitted once to the tolerance with
-//!    [`crate::sphere::tolerance::fit_to_tolerance`], its end control points pinned to its
-//!    junctions ([`crate::sphere::tolerance::ToleranceOptions::pin_ends`]), so every arc that
+//!    [`crate::sphere::compress::tolerance::fit_to_tolerance`], its end control points pinned to its
+//!    junctions ([`crate::sphere::compress::tolerance::ToleranceOptions::pin_ends`]), so every arc that
 //!    meets at a junction ends exactly there. An arc that is a whole ring (an island, an
 //!    enclave and the hole around it) is fitted as a closed curve: started at its sharpest
 //!    corner and closed there exactly; when it turns by less than
@@ -49,12 +49,14 @@ use super::lonlat::{m_to_rad, rad_to_m, round_to, unit_to_lonlat};
 use super::sampling::{sample, AUTO_DEVIATION_FRACTION};
 use super::small_rings;
 use super::{EarthError, Job, Operation, Problem};
+use crate::sphere::certify::two_way::{two_way_distance, TwoWayOptions};
+use crate::sphere::compress::tolerance::{
+    fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions,
+};
 use crate::sphere::fit::adaptive_knots::{turning_angles, CORNER_ANGLE_RAD};
+use crate::sphere::fit::metrics::pointwise_errors;
 use crate::sphere::fit::seam::close_seam;
 use crate::sphere::geometry::crossing::polylines_cross;
-use crate::sphere::metrics::pointwise_errors;
-use crate::sphere::tolerance::{fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions};
-use crate::sphere::two_way::{two_way_distance, TwoWayOptions};
 use crate::sphere::{PointSet, SphericalBSpline};
 use arcs::{ArcGraph, ArcUse, InputRing};
 use rayon::prelude::*;

@@ -261,7 +261,7 @@ fn asin_of_sine_over_cos_half(a: f64, c: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::simplify::distance_to_arc;
+    use crate::sphere::compress::simplify::distance_to_arc;
 
     fn ll(lon: f64, lat: f64) -> Vec<f64> {
         let (lo, la) = (lon.to_radians(), lat.to_radians());
@@ -298,7 +298,8 @@ mod tests {
             let bound = arc_to_arc_sup(&y0, &y1, &frame);
             let mut brute: f64 = 0.0;
             for i in 0..=20_000 {
-                let y = crate::sphere::point::slerp(&y0, &y1, i as f64 / 20_000.0).unwrap();
+                let y =
+                    crate::sphere::geometry::point::slerp(&y0, &y1, i as f64 / 20_000.0).unwrap();
                 brute = brute.max(distance_to_arc(&y, &a, &b));
             }
             assert!(bound >= brute, "{bound} < {brute}");

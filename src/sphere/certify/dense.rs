@@ -50,7 +50,7 @@ pub struct DenseSamples {
 ///
 /// # Example
 /// ```
-/// use spherefit::sphere::dense::sample_within;
+/// use spherefit::sphere::certify::dense::sample_within;
 /// use spherefit::sphere::{PointSet, SphericalBSpline};
 /// let ctrl = PointSet::try_from_rows(&[[1.0, 0.0, 0.0], [0.6, 0.8, 0.0], [0.0, 0.6, 0.8]]).unwrap();
 /// let s = SphericalBSpline::try_new(2, vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0], ctrl).unwrap();
@@ -292,7 +292,7 @@ fn certify_chord(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::simplify::distance_to_arc;
+    use crate::sphere::compress::simplify::distance_to_arc;
     use crate::sphere::SphericalBSpline;
     use proptest::prelude::*;
 

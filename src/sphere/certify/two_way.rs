@@ -133,7 +133,7 @@ pub fn polyline_length(points: &PointSet) -> f64 {
 ///
 /// # Example
 /// ```
-/// use spherefit::sphere::two_way::{two_way_distance, TwoWayOptions};
+/// use spherefit::sphere::certify::two_way::{two_way_distance, TwoWayOptions};
 /// use spherefit::sphere::{PointSet, SphericalBSpline};
 /// // A great-circle arc as a degree-1 spline, and points 1e-4 rad north of it.
 /// let ctrl = PointSet::try_from_rows(&[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]).unwrap();
@@ -753,7 +753,7 @@ fn arc_to_samples(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::simplify::distance_to_arc;
+    use crate::sphere::compress::simplify::distance_to_arc;
     use crate::sphere::SphericalBSpline;
     use proptest::prelude::*;
 
@@ -821,7 +821,7 @@ mod tests {
                 worst = worst.max(distance_to_arc(p, a, b));
             }
             for i in 0..=per {
-                let x = crate::sphere::point::slerp(a, b, i as f64 / per as f64).unwrap();
+                let x = crate::sphere::geometry::point::slerp(a, b, i as f64 / per as f64).unwrap();
                 // The nearest sample, then the nearest curve point around it (golden section):
                 // the nearest sample alone overstates the distance by up to a sample gap's
                 // worth, which is more than the certified bound's slack when the curve passes

@@ -28,9 +28,9 @@
 //! within `q/2`, and the sphere's metric `dβ² + cos²β (…)` is at most the sum of the squared
 //! angle changes); a knot within `2^-(b+1)` of the domain.
 
+use crate::sphere::compress::tolerance::KnotRule;
 use crate::sphere::curve::bspline::{clamped_uniform_knots, SphericalBSpline};
 use crate::sphere::geometry::point::PointSet;
-use crate::sphere::tolerance::KnotRule;
 use crate::sphere::SphereError;
 use std::f64::consts::PI;
 
@@ -180,7 +180,7 @@ fn put_points(out: &mut Vec<u8>, points: &PointSet, q: f64) {
 ///
 /// # Example
 /// ```
-/// use spherefit::sphere::{coding::encode_polyline, PointSet};
+/// use spherefit::sphere::{compress::coding::encode_polyline, PointSet};
 /// let q: f64 = 1e-6;
 /// let rows = [[1.0, 0.0, 0.0], [(100.0 * q).cos(), (100.0 * q).sin(), 0.0]];
 /// let bytes = encode_polyline(&PointSet::try_from_rows(&rows).unwrap(), q).unwrap();

@@ -83,7 +83,7 @@ fn short_arc_limit(outer_tolerance_rad: f64) -> f64 {
 ///
 /// # Example
 /// ```
-/// use spherefit::sphere::{optimal::optimal_subset, simplify::douglas_peucker, PointSet};
+/// use spherefit::sphere::{compress::optimal::optimal_subset, compress::simplify::douglas_peucker, PointSet};
 /// // A zig-zag of amplitude 1e-4 rad along the equator: at 2e-4 it is one arc.
 /// let rows: Vec<[f64; 3]> = (0..50)
 ///     .map(|i| { let (lon, lat): (f64, f64) = (0.01 * i as f64, if i % 2 == 0 { 0.0 } else { 1e-4 }); [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()] })
@@ -501,7 +501,7 @@ pub fn subset_within(points: &PointSet, kept: &[usize], tolerance_rad: f64) -> b
 /// [`KnotRule::Uniform`](super::tolerance::KnotRule)), and each input point's parameter at the
 /// foot of its perpendicular on the segment that spans it (clamped to the segment, then kept
 /// non-decreasing, the ends at 0 and 1): the ordered matching of
-/// [`two_way_distance`](crate::sphere::two_way::two_way_distance).
+/// [`two_way_distance`](crate::sphere::certify::two_way::two_way_distance).
 ///
 /// # Errors
 /// From [`SphericalBSpline::try_new`](crate::sphere::SphericalBSpline::try_new): fewer than 2
@@ -556,7 +556,7 @@ pub fn subset_curve(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::simplify::douglas_peucker;
+    use crate::sphere::compress::simplify::douglas_peucker;
     use proptest::prelude::*;
 
     /// The graph of the module docs, built point by point in O(n³).
@@ -676,7 +676,7 @@ mod tests {
             let kept = optimal_subset(&points, tol);
             prop_assert_eq!(kept.len(), brute_force_count(&points, tol));
             prop_assert!(subset_within(&points, &kept, tol));
-            prop_assert!(crate::sphere::simplify::max_deviation(&points, &kept) <= tol);
+            prop_assert!(crate::sphere::compress::simplify::max_deviation(&points, &kept) <= tol);
             let dp = douglas_peucker(&points, tol);
             prop_assert!(kept.len() <= dp.len(), "{} > DP {}", kept.len(), dp.len());
         }
@@ -734,7 +734,7 @@ mod tests {
 
     #[test]
     fn a_subset_curve_is_certified_within_the_tolerance_on_a_forward_line() {
-        use crate::sphere::two_way::{two_way_distance, TwoWayOptions};
+        use crate::sphere::certify::two_way::{two_way_distance, TwoWayOptions};
         // A forward-only wiggle (no backtracking): the ordered matching at the feet keeps every
         // vertex error at its cross-track distance, so the two-way distance meets T.
         let on = |lon: f64, lat: f64| [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()];

@@ -213,7 +213,7 @@ impl ArcFrame {
 ///
 /// # Example
 /// ```
-/// use spherefit::sphere::simplify::distance_to_arc;
+/// use spherefit::sphere::compress::simplify::distance_to_arc;
 /// let (a, b) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
 /// let h = 0.1_f64;
 /// let q = [h.cos() * 0.5_f64.sqrt(), h.cos() * 0.5_f64.sqrt(), h.sin()];
@@ -240,7 +240,7 @@ pub fn distance_to_arc(q: &[f64], a: &[f64], b: &[f64]) -> f64 {
 ///
 /// # Example
 /// ```
-/// use spherefit::sphere::{simplify::douglas_peucker, PointSet};
+/// use spherefit::sphere::{compress::simplify::douglas_peucker, PointSet};
 /// let rows: Vec<[f64; 3]> = (0..5).map(|i| { let a = 0.1 * i as f64; [a.cos(), a.sin(), 0.0] }).collect();
 /// let line = PointSet::try_from_rows(&rows).unwrap();
 /// assert_eq!(douglas_peucker(&line, 1e-9), vec![0, 4]); // all on one great circle
@@ -349,7 +349,7 @@ fn worst_of(i0: usize, i1: usize, mut error: impl FnMut(usize) -> f64) -> (f64, 
 ///
 /// Plain Douglas–Peucker lets a chord cut across a fjord or an out-and-back spike whose points
 /// all lie near the chord but run along it forwards and then backwards; matched in order (the
-/// two-way distance of [`crate::sphere::two_way`]), the points coming back are far from where
+/// two-way distance of [`crate::sphere::certify::two_way`]), the points coming back are far from where
 /// the curve already is. Here a point's error is its distance to the chord point at the
 /// furthest along-chord position reached so far (its own when it is further on), so a kept
 /// chord is within the tolerance of its points in order. Never fewer vertices than
@@ -357,7 +357,7 @@ fn worst_of(i0: usize, i1: usize, mut error: impl FnMut(usize) -> f64) -> (f64, 
 ///
 /// # Example
 /// ```
-/// use spherefit::sphere::{simplify::{douglas_peucker, douglas_peucker_ordered}, PointSet};
+/// use spherefit::sphere::{compress::simplify::{douglas_peucker, douglas_peucker_ordered}, PointSet};
 /// // Along the equator to 0.3 rad, back to 0.1, on to 0.5: every point is on one great circle.
 /// let rows: Vec<[f64; 3]> = [0.0, 0.3, 0.1, 0.5]
 ///     .iter()
@@ -424,7 +424,7 @@ pub fn douglas_peucker_ordered(points: &PointSet, tolerance_rad: f64) -> Vec<usi
 ///
 /// # Example
 /// ```
-/// use spherefit::sphere::{simplify::synchronized_douglas_peucker, PointSet};
+/// use spherefit::sphere::{compress::simplify::synchronized_douglas_peucker, PointSet};
 /// // Five points on one great circle, but the middle one is late: only time shows it.
 /// let rows: Vec<[f64; 3]> = (0..5).map(|i| { let a = 0.1 * i as f64; [a.cos(), a.sin(), 0.0] }).collect();
 /// let line = PointSet::try_from_rows(&rows).unwrap();

@@ -100,7 +100,7 @@
 //!   would not reach the target.
 //! * The polyline fallbacks are only built when the search found nothing.
 //! * Polyline foot points in closed form (the along-track angle on the span's arc); the
-//!   two-way checks of polylines in closed form ([`crate::sphere::two_way`]); the pieces of a
+//!   two-way checks of polylines in closed form ([`crate::sphere::certify::two_way`]); the pieces of a
 //!   long line seeded from the whole line's Douglas–Peucker, not one each.
 //!
 //! `scripts/speed_bench.sh` measures whole datasets against mapshaper, and
@@ -154,7 +154,7 @@ pub struct Candidate {
     /// Vertex error (parametric, at the curve's data parameters).
     pub max_error_rad: f64,
     /// The fitter only decides whether the certified two-way distance to the input polyline
-    /// (see [`crate::sphere::two_way`]) is within the tolerance: for a curve that meets it,
+    /// (see [`crate::sphere::certify::two_way`]) is within the tolerance: for a curve that meets it,
     /// the proven bound found (at most the tolerance); for one that does not, the distance of
     /// a curve point or vertex found beyond the tolerance (a lower bound of the distance).
     pub two_way_rad: f64,
@@ -300,7 +300,7 @@ pub struct ToleranceFit {
     /// on the returned curve.
     pub metrics: ErrorMetrics,
     /// Certified upper bound of the two-way distance between the curve and the input polyline,
-    /// with the points matched in order at `parameters` ([`crate::sphere::two_way`]), radians.
+    /// with the points matched in order at `parameters` ([`crate::sphere::certify::two_way`]), radians.
     pub two_way_rad: f64,
     /// A two-way distance attained by the curve (a lower bound of it): `two_way_rad` minus this
     /// is how tight that bound is, so a caller can tell whether it serves as a measurement.

@@ -178,8 +178,8 @@ mod tests {
         assert!(moved > 0);
         assert_eq!((t[0], t[119]), (0.0, 1.0));
         assert!(t.windows(2).all(|w| w[1] >= w[0]));
-        let before = crate::sphere::metrics::pointwise_errors(&r.spline, &pts, &r.parameters);
-        let after = crate::sphere::metrics::pointwise_errors(&r.spline, &pts, &t);
+        let before = crate::sphere::fit::metrics::pointwise_errors(&r.spline, &pts, &r.parameters);
+        let after = crate::sphere::fit::metrics::pointwise_errors(&r.spline, &pts, &t);
         let (sb, sa): (f64, f64) = (before.iter().sum(), after.iter().sum());
         assert!(sa < 0.9 * sb, "{sa} vs {sb}");
     }
