@@ -372,7 +372,7 @@ mod tests {
             let q = c.evaluate_many(&ts);
             for k in 0..q.len() {
                 let (a, b) = (&d.points[j], &d.points[j + 1]);
-                let dev = crate::sphere::compress::simplify::distance_to_arc(q.get(k), a, b);
+                let dev = crate::sphere::geometry::arc::distance_to_arc(q.get(k), a, b);
                 assert!(
                     dev <= d.max_deviation_rad,
                     "chord {j}: {dev} > {}",

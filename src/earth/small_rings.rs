@@ -24,7 +24,7 @@ use super::curve::{parse_positions, CurveOutput, CurveReport, LinePositions};
 use super::json_out::JsonOut;
 use super::lonlat::{rad_to_m, round_to, unit_to_lonlat};
 use super::EarthError;
-use crate::sphere::compress::simplify::distance_to_arc;
+use crate::sphere::geometry::arc::distance_to_arc;
 
 /// Samples per triangle edge when the triangle's distance to the input outline is measured.
 const EDGE_SAMPLES: usize = 32;

@@ -7,7 +7,7 @@
 //!
 //! All angles are radians on the unit sphere S^n (any n); nothing here knows about metres.
 
-use crate::sphere::compress::simplify::ArcFrame;
+use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle_between, dot, Dim, Dynamic};
 
 /// Added to every proven bound: the bounds hold in exact arithmetic, and the curve's own
@@ -261,7 +261,7 @@ fn asin_of_sine_over_cos_half(a: f64, c: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::compress::simplify::distance_to_arc;
+    use crate::sphere::geometry::arc::distance_to_arc;
 
     fn ll(lon: f64, lat: f64) -> Vec<f64> {
         let (lo, la) = (lon.to_radians(), lat.to_radians());

@@ -11,8 +11,8 @@
 //! whichever is smaller). Proofs: `docs/certified-distance.md`.
 
 use super::bounds::{arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD};
-use crate::sphere::compress::simplify::ArcFrame;
 use crate::sphere::curve::{even_parameters, SphericalCurve};
+use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle_between, Dynamic, PointSet};
 use rayon::prelude::*;
 
@@ -292,7 +292,7 @@ fn certify_chord(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::compress::simplify::distance_to_arc;
+    use crate::sphere::geometry::arc::distance_to_arc;
     use crate::sphere::SphericalBSpline;
     use proptest::prelude::*;
 

@@ -16,7 +16,7 @@
 
 use super::bounds::arc_to_arc_known;
 use super::two_way::Piece;
-use crate::sphere::compress::simplify::ArcFrame;
+use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle, Dim, PointSet};
 
 /// One segment's piece, `qa`–`qb` against the curve over `[ta, tb]`.

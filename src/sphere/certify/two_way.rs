@@ -36,8 +36,8 @@
 //! polyline's segments; for a polyline curve, a few arc-to-arc bounds per segment.
 
 use super::bounds::{arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD};
-use crate::sphere::compress::simplify::ArcFrame;
 use crate::sphere::curve::SphericalCurve;
+use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle_between, dot, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use rayon::prelude::*;
@@ -753,7 +753,7 @@ fn arc_to_samples(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::compress::simplify::distance_to_arc;
+    use crate::sphere::geometry::arc::distance_to_arc;
     use crate::sphere::SphericalBSpline;
     use proptest::prelude::*;
 

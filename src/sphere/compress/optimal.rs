@@ -46,7 +46,7 @@
 //! memory (the open sweeps' states), plus the shortcuts of a quarter circle or longer found.
 //! S^n, n > 2: O(Σ_i w_i²) time.
 
-use super::simplify::{distance_to_arc, ArcFrame};
+use crate::sphere::geometry::arc::{distance_to_arc, ArcFrame};
 use crate::sphere::geometry::point::{
     angle, dot, normalize, Dim, Fixed, PointSet, ANTIPODAL_MARGIN_RAD,
 };

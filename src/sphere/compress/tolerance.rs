@@ -106,10 +106,7 @@
 //! `scripts/speed_bench.sh` measures whole datasets against mapshaper, and
 //! `scripts/callgrind_bench.sh` counts instructions (stable on a shared machine).
 
-use super::simplify::{
-    distance_key, distance_to_arc, douglas_peucker, douglas_peucker_ordered,
-    synchronized_douglas_peucker, ArcFrame,
-};
+use super::simplify::{douglas_peucker, douglas_peucker_ordered, synchronized_douglas_peucker};
 use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
 };
@@ -121,6 +118,7 @@ use crate::sphere::fit::knots::{
     greville_control_points, normalize_parameters, parameters, Parameterization,
 };
 use crate::sphere::fit::metrics::{measure, ErrorMetrics};
+use crate::sphere::geometry::arc::{distance_key, distance_to_arc, ArcFrame};
 use crate::sphere::geometry::point::{
     angle, angle_from_chords, angle_from_sine, diff_sum_sq, dot, exp_in_place, slerp, Dim,
     PointSet, SERIES_ANGLE_MAX_RAD,

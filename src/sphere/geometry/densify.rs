@@ -74,7 +74,7 @@ pub fn densify(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sphere::compress::simplify::distance_to_arc;
+    use crate::sphere::geometry::arc::distance_to_arc;
 
     #[test]
     fn inserted_points_lie_on_the_segments_and_steps_are_short() {
