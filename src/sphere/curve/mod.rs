@@ -23,7 +23,7 @@ pub trait SphericalCurve: Send + Sync {
 
     /// An upper bound of the speed |dC/dt| (radians per unit of parameter) over `[t0, t1]`
     /// (inside the domain, `t0 <= t1`), proven from the curve's construction (see
-    /// [`super::bounds`]); infinity when no finite bound is known for so wide an interval
+    /// [`crate::sphere::certify::bounds`]); infinity when no finite bound is known for so wide an interval
     /// (callers subdivide). Certified distances and dense sampling rest on it.
     fn speed_bound(&self, t0: f64, t1: f64) -> f64;
 

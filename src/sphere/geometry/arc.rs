@@ -1,6 +1,6 @@
 //! Minor great-circle arcs on S^n and the distance of a point to one: the cross-track distance
 //! when the foot of the perpendicular falls on the arc, else the distance to the nearer end.
-//! [`ArcFrame`] prepares an arc for many queries; Douglas–Peucker, the optimal subset, the
+//! `ArcFrame` prepares an arc for many queries; Douglas–Peucker, the optimal subset, the
 //! tolerance fitter's polyline removals and every bound in `certify/` measure with it.
 
 use crate::sphere::geometry::point::{

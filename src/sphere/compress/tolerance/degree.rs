@@ -1,0 +1,266 @@
+//! One vertex target's curves of every degree: the degree probe, the seeded fits with knot
+//! insertion and removal, and the fewest control points on uniform knots.
+
+use super::fitter::{Fitter, REFIT_ITERATIONS};
+use super::pieces::polyline_in_pieces;
+use super::{stored_numbers, Curve, KnotRule, ToleranceOptions};
+use crate::sphere::curve::bspline::{clamped_uniform_knots, with_degree, Degree};
+use crate::sphere::fit::metrics::{measure, ErrorMetrics};
+use crate::sphere::geometry::point::{Dim, PointSet};
+use crate::sphere::SphereError;
+
+/// Every degree's curves at one vertex target (see the module docs), with honest errors.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn search(
+    points: &PointSet,
+    base_params: &[f64],
+    free: bool,
+    target: f64,
+    cap: usize,
+    options: &ToleranceOptions,
+    degrees: &[usize],
+    yardstick: usize,
+) -> Result<Searched, SphereError> {
+    let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
+    let mut closest: Option<(Curve, ErrorMetrics)> = None;
+    for &p in degrees {
+        options.cancel.check()?;
+        if p >= 2 && free && options.degree_probe {
+            // The probe reads the smallest degree-1 curve that met the target, if any.
+            let polyline = found
+                .iter()
+                .filter(|(c, _)| c.spline.degree() == 1)
+                .min_by_key(|(c, _)| c.spline.control_points().len());
+            if polyline.is_some_and(|(c, _)| !smooth_bends(c.spline.control_points())) {
+                continue;
+            }
+            // Douglas–Peucker keeps nearly every point: each one is a corner at this
+            // tolerance, which a smooth curve must turn within a tolerance of, at the cost of
+            // control points clustered there; the polyline is already the cheapest curve.
+            let kept = yardstick.saturating_sub(1) / (points.dim() - 1);
+            if yardstick < usize::MAX
+                && kept * SPARSE_DENOMINATOR >= SPARSE_NUMERATOR * points.len()
+            {
+                continue;
+            }
+        }
+        // Curves storing as much as Douglas–Peucker (the yardstick) are never proven, so the
+        // uniform-knot search does not look at them either.
+        let budget = found
+            .iter()
+            .filter(|(_, m)| m.max_error_rad <= target)
+            .map(|(c, _)| stored_numbers(&c.spline, c.rule))
+            .chain((yardstick < usize::MAX).then_some(yardstick))
+            .min();
+        let curves = crate::with_dim!(points.dim(), |d| with_degree!(p, |g| fit_degree(
+            d,
+            g,
+            points,
+            base_params,
+            free,
+            target,
+            cap,
+            budget,
+            options
+        )));
+        for c in curves {
+            // Honest errors: measured afresh by the library's own pass on the returned curve.
+            let m = measure(&c.spline, points, &c.params);
+            if m.max_error_rad <= target {
+                found.push((c, m));
+            } else if closest
+                .as_ref()
+                .is_none_or(|(_, b): &(Curve, ErrorMetrics)| m.max_error_rad < b.max_error_rad)
+            {
+                closest = Some((c, m));
+            }
+        }
+    }
+    options.cancel.check()?;
+    Ok((found, closest))
+}
+
+/// Fewest turns (interior vertices) of a polyline for [`smooth_bends`] to judge it; a shorter
+/// one is always tried at every degree (its fits are cheap).
+const PROBE_MIN_TURNS: usize = 10;
+
+/// A line whose Douglas–Peucker polyline keeps this share of its points or more
+/// (`SPARSE_NUMERATOR / SPARSE_DENOMINATOR`) is only fitted by polylines (see [`search`]).
+const SPARSE_NUMERATOR: usize = 4;
+/// See [`SPARSE_NUMERATOR`].
+const SPARSE_DENOMINATOR: usize = 5;
+
+/// Least share of neighbouring turns bending the same way for a polyline to count as smooth.
+const PROBE_AGREEMENT: f64 = 2.0 / 3.0;
+
+/// Whether a polyline (the best degree-1 fit) bends the way a smooth curve does at the
+/// tolerance's scale: at least [`PROBE_AGREEMENT`] of its neighbouring turns bend the same
+/// way, that is bends of three or more vertices on average between inflections. A smooth
+/// curve replaces a bend of several vertices by fewer control points; a polyline that turns
+/// left, right, left at nearly every vertex (a coastline, a jittery track at a small
+/// tolerance) is already the cheapest curve through its corners, and a smooth one needs
+/// more control points than it has vertices.
+///
+/// How often real lines agree is measured in `docs/tolerance-fitting.md` ("The degree
+/// probe"). The turn at vertex b is the
+/// change of direction there, `unit(c − b) − unit(b − a)` (in any dimension; unit chords, so
+/// uneven vertex spacing does not tilt it along the line); two turns agree when their dot
+/// product is positive.
+fn smooth_bends(ctrl: &PointSet) -> bool {
+    let (n, dim) = (ctrl.len(), ctrl.dim());
+    if n < PROBE_MIN_TURNS + 2 {
+        return true;
+    }
+    let unit_chord = |a: &[f64], b: &[f64], out: &mut [f64]| {
+        let mut norm = 0.0;
+        for x in 0..dim {
+            out[x] = b[x] - a[x];
+            norm += out[x] * out[x];
+        }
+        let inv = if norm > 0.0 { 1.0 / norm.sqrt() } else { 0.0 };
+        out.iter_mut().for_each(|v| *v *= inv);
+    };
+    let (mut before, mut after) = (vec![0.0; dim], vec![0.0; dim]);
+    let (mut prev, mut turn) = (vec![0.0; dim], vec![0.0; dim]);
+    unit_chord(ctrl.get(0), ctrl.get(1), &mut before);
+    let (mut agree, mut pairs) = (0usize, 0usize);
+    for i in 1..n - 1 {
+        unit_chord(ctrl.get(i), ctrl.get(i + 1), &mut after);
+        for x in 0..dim {
+            turn[x] = after[x] - before[x];
+        }
+        if i > 1 {
+            pairs += 1;
+            let same: f64 = (0..dim).map(|x| turn[x] * prev[x]).sum();
+            agree += usize::from(same > 0.0);
+        }
+        std::mem::swap(&mut prev, &mut turn);
+        std::mem::swap(&mut before, &mut after);
+    }
+    agree as f64 >= PROBE_AGREEMENT * pairs as f64
+}
+
+/// What [`search`] found: the curves meeting the vertex target, and the one closest to it
+/// among the others.
+pub(super) type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
+
+#[allow(clippy::too_many_arguments)]
+fn fit_degree<D: Dim, G: Degree>(
+    d: D,
+    g: G,
+    points: &PointSet,
+    base_params: &[f64],
+    free: bool,
+    target: f64,
+    cap: usize,
+    budget: Option<usize>,
+    options: &ToleranceOptions,
+) -> Vec<Curve> {
+    let p = g.get();
+    let mut out = Vec::new();
+    if p + 1 > cap {
+        return out;
+    }
+    let dim = d.get();
+    let mut budget = budget;
+    let mut offer = |c: Curve, met: bool, out: &mut Vec<Curve>| {
+        if met {
+            let s = stored_numbers(&c.spline, c.rule);
+            budget = Some(budget.map_or(s, |b: usize| b.min(s)));
+        }
+        out.push(c);
+    };
+    // (Pieces only where no cap on control points binds: a piece does not know the others.)
+    if free && p == 1 && options.reduce && cap >= points.len() {
+        if let Some((c, met)) = polyline_in_pieces(d, g, points, target, options) {
+            if options.uniform_knots {
+                offer(c, met, &mut out);
+            } else {
+                let stored = Curve {
+                    rule: KnotRule::Stored,
+                    ..c
+                };
+                offer(stored, met, &mut out);
+            }
+            return out;
+        }
+    }
+    if !free || p == 1 || options.adaptive_knots {
+        let Some(mut f) = Fitter::seeded(d, g, points, base_params, free, target, cap, options)
+        else {
+            return out;
+        };
+        f.reweight = options.reweight;
+        f.refine(target, cap);
+        let met = f.max_error() <= target;
+        if options.reduce && met {
+            f.reduce(target);
+        }
+        if free && options.uniform_knots {
+            if let Some(u) = f.to_uniform(target) {
+                offer(u, true, &mut out);
+            }
+        }
+        if let Some(c) = f.into_curve(KnotRule::Stored) {
+            offer(c, met, &mut out);
+        }
+    }
+    if free && options.uniform_knots && p >= 2 {
+        // Only counts that store fewer numbers than the best curve so far can win.
+        let most = match budget {
+            Some(b) => (b.saturating_sub(2) / (dim - 1)).min(cap),
+            None => cap.min(points.len()),
+        };
+        if let Some(u) = uniform_search(d, g, points, base_params, target, most, options.pin_ends) {
+            out.push(u);
+        }
+    }
+    out
+}
+
+/// Uniform knots, no knot stored: the fewest control points, by bisection between p + 1 and
+/// `most`, whose fit with corrected parameters meets the target.
+fn uniform_search<D: Dim, G: Degree>(
+    d: D,
+    g: G,
+    points: &PointSet,
+    base_params: &[f64],
+    target: f64,
+    most: usize,
+    pin_ends: bool,
+) -> Option<Curve> {
+    let p = g.get();
+    if most < p + 1 {
+        return None;
+    }
+    let try_count = |n_ctrl: usize| -> Option<Fitter<D, G>> {
+        let knots = clamped_uniform_knots(n_ctrl, p);
+        let mut f = Fitter::with_knots(d, g, points, base_params.to_vec(), true, knots)?;
+        if pin_ends {
+            f.pin_ends();
+        }
+        f.correct_all(4);
+        f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0, true);
+        Some(f)
+    };
+    let hi_limit = most;
+    let mut lo = p + 1;
+    let mut hi = hi_limit;
+    // Is the top of the range feasible at all?
+    let top = try_count(hi)?;
+    if top.max_error() > target {
+        return None;
+    }
+    let mut best = Some(top);
+    while lo < hi && !crate::sphere::cancel::cancelled() {
+        let mid = (lo + hi) / 2;
+        match try_count(mid) {
+            Some(f) if f.max_error() <= target => {
+                hi = mid;
+                best = Some(f);
+            }
+            _ => lo = mid + 1,
+        }
+    }
+    best.and_then(|f| f.into_curve(KnotRule::Uniform))
+}

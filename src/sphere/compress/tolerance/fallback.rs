@@ -1,0 +1,103 @@
+//! The polyline fallbacks: Douglas–Peucker's vertices at the tolerance and a hair under it,
+//! then every point, for when no fitted curve meets the tolerance (and as the yardstick a
+//! fitted curve must store fewer numbers than).
+
+use super::{Curve, KnotRule};
+use crate::sphere::compress::simplify::{
+    douglas_peucker, douglas_peucker_ordered, synchronized_douglas_peucker,
+};
+use crate::sphere::curve::bspline::{clamped_uniform_knots, SphericalBSpline};
+use crate::sphere::geometry::point::PointSet;
+
+/// How many polyline fallbacks [`polyline_candidate`] knows.
+pub(super) const POLYLINE_CANDIDATES: usize = 4;
+
+/// The `k`-th polyline fallback, degree 1 on uniform knots (none stored): the Douglas–Peucker
+/// vertices at the tolerance and a hair under it, then every point. Each point's parameter is
+/// where it projects on its segment (kept non-decreasing). With given parameters the vertices
+/// are the time-aware Douglas–Peucker's (TD-TR, the error at a point's own parameter) and the
+/// knots are the kept points' parameters (stored); the polyline through every point then has
+/// error 0 at every parameter, so strictly increasing parameters always meet the tolerance.
+pub(super) fn polyline_candidate(
+    points: &PointSet,
+    base_params: &[f64],
+    free: bool,
+    tolerance_rad: f64,
+    k: usize,
+) -> Option<Curve> {
+    // Douglas–Peucker bounds the vertices' distance to the kept chords; the ordered two-way
+    // distance can be a little more, hence the second try a hair under the tolerance.
+    // With given parameters (times) the vertex error is the synchronized distance, so the
+    // time-aware Douglas–Peucker (TD-TR) chooses the vertices, and the polyline through every
+    // point (error 0 at every parameter) is the last resort. With free parameters, after plain
+    // Douglas–Peucker come the chords that keep the points in order (fjords and spikes that
+    // plain Douglas–Peucker cuts across), before every point.
+    let every = || (0..points.len()).collect::<Vec<usize>>();
+    let kept = match (free, k) {
+        (true, 0) => douglas_peucker(points, tolerance_rad),
+        (true, 1) => douglas_peucker(points, 0.95 * tolerance_rad),
+        (true, 2) => douglas_peucker_ordered(points, 0.95 * tolerance_rad),
+        (true, 3) => every(),
+        (false, 0) => synchronized_douglas_peucker(points, base_params, tolerance_rad),
+        (false, 1) => synchronized_douglas_peucker(points, base_params, 0.95 * tolerance_rad),
+        (false, 2) => every(),
+        _ => return None,
+    };
+    polyline_through(points, base_params, free, &kept)
+}
+
+fn polyline_through(
+    points: &PointSet,
+    base_params: &[f64],
+    free: bool,
+    kept: &[usize],
+) -> Option<Curve> {
+    let ctrl = points.subset(kept);
+    let m = kept.len();
+    if free {
+        let knots = clamped_uniform_knots(m, 1);
+        let mut params = Vec::with_capacity(points.len());
+        let mut last: f64 = 0.0;
+        for w in 0..m - 1 {
+            let (a, b) = (points.get(kept[w]), points.get(kept[w + 1]));
+            let theta = crate::sphere::geometry::point::angle_between(a, b);
+            let lo = if w == 0 { kept[0] } else { kept[w] + 1 };
+            for j in lo..=kept[w + 1] {
+                let frac = if j == kept[w + 1] {
+                    1.0
+                } else if theta > 0.0 {
+                    let q = points.get(j);
+                    let ta = crate::sphere::geometry::point::angle_between(a, q);
+                    let tb = crate::sphere::geometry::point::angle_between(q, b);
+                    // Along-track position from the two end distances (law of cosines form).
+                    (0.5 + (ta * ta - tb * tb) / (2.0 * theta * theta)).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let t = ((w as f64 + frac) / (m - 1) as f64).max(last);
+                last = t;
+                params.push(t);
+            }
+        }
+        let last = params.len() - 1;
+        params[last] = 1.0;
+        let spline = SphericalBSpline::try_new(1, knots, ctrl).ok()?;
+        Some(Curve {
+            spline,
+            params,
+            rule: KnotRule::Uniform,
+        })
+    } else {
+        let mut knots = vec![base_params[kept[0]]; 2];
+        for &i in &kept[1..m - 1] {
+            knots.push(base_params[i]);
+        }
+        knots.extend([base_params[kept[m - 1]]; 2]);
+        let spline = SphericalBSpline::try_new(1, knots, ctrl).ok()?;
+        Some(Curve {
+            spline,
+            params: base_params.to_vec(),
+            rule: KnotRule::Stored,
+        })
+    }
+}

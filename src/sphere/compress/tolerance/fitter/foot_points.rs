@@ -1,0 +1,207 @@
+//! Foot-point correction: each point's parameter moved towards the curve point nearest it.
+
+use super::{eval_curve, Fitter};
+use crate::sphere::curve::bspline::Degree;
+use crate::sphere::geometry::arc::ArcFrame;
+use crate::sphere::geometry::point::{angle_from_sine, dot, Dim};
+
+impl<D: Dim, G: Degree> Fitter<'_, D, G> {
+    /// Moves the parameters of points `j0 .. j1` towards their foot points (Newton on
+    /// |q − C(t)|², central differences for C'), keeping them non-decreasing and the end points
+    /// at 0 and 1. A step is kept only when it lowers that point's error.
+    pub(super) fn correct_range(&mut self, j0: usize, j1: usize, steps: usize) {
+        if !self.free {
+            return;
+        }
+        if self.p() == 1 {
+            self.correct_range_polyline(j0, j1);
+            return;
+        }
+        let n = self.points.len();
+        let dim = self.d.get();
+        for j in j0.max(1)..j1.min(n - 1) {
+            let (lo, hi) = (self.params[j - 1], self.params[j + 1]);
+            let mut t = self.params[j];
+            let mut e = self.err[j];
+            for _ in 0..steps {
+                if e == 0.0 {
+                    break;
+                }
+                let k = eval_curve::<D, G, false>(
+                    self.d,
+                    self.g,
+                    &self.knots,
+                    &self.ctrl,
+                    t,
+                    &mut self.span_hint,
+                    &mut self.scratch,
+                    &mut self.c,
+                );
+                let width = (self.knots[k + 1] - self.knots[k]).max(1e-12);
+                let h = 1e-4 * width;
+                // Forward difference inside the span (backward at its end): C' is smooth there.
+                let (ta, tb) = if t + h <= self.knots[k + 1] {
+                    (t, t + h)
+                } else {
+                    (t - h, t)
+                };
+                eval_curve::<D, G, false>(
+                    self.d,
+                    self.g,
+                    &self.knots,
+                    &self.ctrl,
+                    tb,
+                    &mut self.span_hint,
+                    &mut self.scratch,
+                    &mut self.c2,
+                );
+                let mut dc = [0.0; 16];
+                let mut heap = Vec::new();
+                let dc: &mut [f64] = if dim <= 16 {
+                    &mut dc[..dim]
+                } else {
+                    heap.resize(dim, 0.0);
+                    &mut heap
+                };
+                dc.copy_from_slice(&self.c2[..dim]);
+                let inv = 1.0 / (tb - ta);
+                if ta == t {
+                    for x in 0..dim {
+                        dc[x] = (dc[x] - self.c[x]) * inv;
+                    }
+                } else {
+                    eval_curve::<D, G, false>(
+                        self.d,
+                        self.g,
+                        &self.knots,
+                        &self.ctrl,
+                        ta,
+                        &mut self.span_hint,
+                        &mut self.scratch,
+                        &mut self.c2,
+                    );
+                    for x in 0..dim {
+                        dc[x] = (dc[x] - self.c2[x]) * inv;
+                    }
+                }
+                let q = self.points.get(j);
+                let mut num = 0.0;
+                for x in 0..dim {
+                    num += (q[x] - self.c[x]) * dc[x];
+                }
+                let den = dot(self.d, dc, dc);
+                if den <= 0.0 || !num.is_finite() {
+                    break;
+                }
+                let tn = (t + num / den).clamp(lo, hi);
+                if tn == t {
+                    break;
+                }
+                let en = self.error_at(j, tn);
+                if en < e {
+                    t = tn;
+                    e = en;
+                } else {
+                    break;
+                }
+            }
+            self.params[j] = t;
+            self.err[j] = e;
+        }
+    }
+
+    /// [`correct_range`](Self::correct_range) for a polyline: the foot point on the arc of the
+    /// span holding the parameter, in closed form (the arc's along-track angle over its
+    /// length), instead of Newton steps with finite differences (three curve evaluations per
+    /// point, a sixth of a coastline's fitting time). A foot beyond the span's end stops at
+    /// its vertex; the next correction carries on from the next span. Kept non-decreasing
+    /// and only where it lowers the point's error, as the Newton steps are.
+    fn correct_range_polyline(&mut self, j0: usize, j1: usize) {
+        let n = self.points.len();
+        let d = self.d;
+        let last = self.last_span();
+        let mut k = 1;
+        for j in j0.max(1)..j1.min(n - 1) {
+            let e = self.err[j];
+            if e == 0.0 {
+                continue;
+            }
+            let (lo, hi) = (self.params[j - 1], self.params[j + 1]);
+            let t = self.params[j];
+            if !(self.knots[k] <= t && (t < self.knots[k + 1] || k == last)) {
+                k = self
+                    .knots
+                    .partition_point(|&u| u <= t)
+                    .saturating_sub(1)
+                    .clamp(1, last);
+            }
+            let q = self.points.get(j);
+            // The foot on span k's arc, as (parameter, where it fell: -1 before the arc's
+            // start, 1 past its end, 0 on it, and then the point's distance to it).
+            let foot = |k: usize| -> Option<(f64, i8, f64)> {
+                let (u0, u1) = (self.knots[k], self.knots[k + 1]);
+                let arc = ArcFrame::new(d, self.ctrl.get(k - 1), self.ctrl.get(k));
+                if arc.degenerate() || arc.is_antipodal() || u1 <= u0 {
+                    return None;
+                }
+                let (x, y) = (dot(d, q, &arc.e1), dot(d, q, &arc.e2));
+                // The along-track angle atan2(y, x), by its sine where it is small (a point
+                // near a short arc), without libm's atan2.
+                let r = (x * x + y * y).sqrt();
+                let phi = if x > 0.0 && y.abs() <= 0.1 * r {
+                    angle_from_sine(y.abs() / r).copysign(y)
+                } else {
+                    y.atan2(x)
+                };
+                let alpha = phi / arc.theta;
+                if alpha < 0.0 {
+                    return Some((u0, -1, f64::NAN));
+                }
+                if alpha > 1.0 {
+                    return Some((u1, 1, f64::NAN));
+                }
+                // The curve point at the foot is q's projection on the arc's great circle:
+                // the error there is the cross-track distance, asin |q - x e1 - y e2|.
+                let mut perp_sq = 0.0;
+                for c in 0..d.get() {
+                    let r = q[c] - x * arc.e1[c] - y * arc.e2[c];
+                    perp_sq += r * r;
+                }
+                let dist = angle_from_sine(perp_sq.sqrt());
+                Some((u0 + alpha * (u1 - u0), 0, dist))
+            };
+            let Some(mut best) = foot(k) else {
+                continue;
+            };
+            // Past a vertex: the foot may lie on the next arc (or the one before).
+            let next = match best.1 {
+                1 if k < last => foot(k + 1),
+                -1 if k > 1 => foot(k - 1),
+                _ => None,
+            };
+            if let Some(f @ (_, 0, _)) = next {
+                best = f;
+            }
+            let (tn, side, dist) = best;
+            let clamped = tn.clamp(lo, hi);
+            if clamped == t {
+                continue;
+            }
+            // On the arc and not held back by a neighbour's parameter: the distance is known
+            // (evaluating the curve there gives the same to rounding); otherwise measure.
+            let en = if side == 0 && clamped == tn && dist < 0.1 {
+                dist
+            } else {
+                self.error_at(j, clamped)
+            };
+            if en < e {
+                self.params[j] = clamped;
+                self.err[j] = en;
+            }
+        }
+    }
+
+    pub(in crate::sphere::compress::tolerance) fn correct_all(&mut self, steps: usize) {
+        self.correct_range(0, self.points.len(), steps);
+    }
+}

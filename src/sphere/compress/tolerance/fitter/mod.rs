@@ -1,0 +1,392 @@
+//! The working curve of one degree's fit ([`Fitter`]): knots, control points, data parameters
+//! and every point's error, with the moves the fitter makes on them, each in its own file:
+//! foot-point correction (`foot_points`), Gauss–Newton refits of a window of control points
+//! (`refit`), knot insertion where the error is too large (`insertion`) and greedy knot removal
+//! (`removal`).
+
+mod foot_points;
+mod insertion;
+mod refit;
+mod removal;
+
+use super::{Curve, KnotRule, ToleranceOptions};
+use crate::sphere::compress::simplify::{douglas_peucker, douglas_peucker_ordered};
+use crate::sphere::curve::bspline::{
+    clamped_uniform_knots, Degree, Frame, Scratch, SphericalBSpline,
+};
+use crate::sphere::fit::knots::greville_control_points;
+use crate::sphere::geometry::point::{angle, Dim, PointSet};
+use crate::sphere::linalg::banded::{BandCholesky, SymmetricBand};
+
+/// Gauss–Newton passes per (local) refit. The fits start close to their optimum (after a knot
+/// insertion or removal only a few control points move), and the tolerance test, not the
+/// optimum, decides.
+pub(super) const REFIT_ITERATIONS: usize = 6;
+
+/// The working state of one degree's fit: knots, control points, data parameters and the error
+/// of every point, with local refits on windows of control points.
+pub(super) struct Fitter<'a, D: Dim, G: Degree> {
+    d: D,
+    g: G,
+    points: &'a PointSet,
+    free: bool,
+    /// Use Lawson reweighting in removals.
+    pub(super) reweight: bool,
+    /// The end control points are the first and last point and never move.
+    pinned: bool,
+    params: Vec<f64>,
+    knots: Vec<f64>,
+    ctrl: PointSet,
+    err: Vec<f64>,
+    /// Least-squares weight of each point: 1, raised around points that stay out of tolerance
+    /// while a removal is tried (Lawson-style reweighting towards the minimax fit).
+    weight: Vec<f64>,
+    scratch: Scratch,
+    c: Vec<f64>,
+    c2: Vec<f64>,
+    /// Kept between refits: a removal sweep refits thousands of small windows.
+    buffers: RefitBuffers,
+    /// What a removal saves to undo itself, kept between removals.
+    undo: Undo,
+    /// The span of the last evaluation ([`eval_curve`]).
+    span_hint: usize,
+}
+
+/// The window a knot removal changes, saved before its refit ([`Fitter::try_remove`]).
+#[derive(Default)]
+struct Undo {
+    removed: Vec<f64>,
+    ctrl: Vec<f64>,
+    params: Vec<f64>,
+    err: Vec<f64>,
+}
+
+/// The working arrays of one Gauss–Newton refit ([`Fitter::refit_or_give_up`]).
+#[derive(Default)]
+struct RefitBuffers {
+    band: SymmetricBand,
+    chol: BandCholesky,
+    rhs: Vec<f64>,
+    step: Vec<f64>,
+    saved: Vec<f64>,
+}
+
+/// C(t) into `out`; with `CONTRIB` the contribution coefficients are in `scratch.contrib`.
+/// Returns the span, and keeps it in `hint`: the fitter's passes go through the points in
+/// order, so the next span is this one or the next and no binary search over the knots is
+/// needed.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn eval_curve<D: Dim, G: Degree, const CONTRIB: bool>(
+    d: D,
+    g: G,
+    knots: &[f64],
+    ctrl: &PointSet,
+    t: f64,
+    hint: &mut usize,
+    scratch: &mut Scratch,
+    out: &mut [f64],
+) -> usize {
+    let frame = Frame::new(g.get(), knots, ctrl);
+    let k = frame.span_from((*hint).clamp(frame.p, frame.last_span), t);
+    *hint = k;
+    frame.eval::<D, G, CONTRIB, false>(d, g, k, t, scratch, out);
+    k
+}
+
+impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
+    pub(super) fn with_knots(
+        d: D,
+        g: G,
+        points: &'a PointSet,
+        params: Vec<f64>,
+        free: bool,
+        knots: Vec<f64>,
+    ) -> Option<Self> {
+        let p = g.get();
+        let ctrl = greville_control_points(points, &params, &knots, p).ok()?;
+        let mut f = Fitter {
+            d,
+            g,
+            points,
+            free,
+            reweight: false,
+            pinned: false,
+            err: vec![0.0; points.len()],
+            weight: vec![1.0; points.len()],
+            params,
+            knots,
+            ctrl,
+            scratch: Scratch::new(p, d.get()),
+            c: vec![0.0; d.get()],
+            c2: vec![0.0; d.get()],
+            buffers: RefitBuffers::default(),
+            undo: Undo::default(),
+            span_hint: p,
+        };
+        f.measure_range(0, points.len());
+        Some(f)
+    }
+
+    /// The first curve: for degree 1 the Douglas–Peucker polyline at the tolerance itself (which
+    /// meets it once parameters are foot points); for higher degrees knots at the vertices of a
+    /// coarser Douglas–Peucker, the curve then fitted.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn seeded(
+        d: D,
+        g: G,
+        points: &'a PointSet,
+        base_params: &[f64],
+        free: bool,
+        target: f64,
+        cap: usize,
+        options: &ToleranceOptions,
+    ) -> Option<Self> {
+        let p = g.get();
+        let factor = if p == 1 { 1.0 } else { options.seed_factor };
+        // The polyline seed keeps the points in order along its chords (fjords, spikes), so it
+        // meets the target once parameters are foot points, without knot insertions.
+        let kept = if p == 1 {
+            douglas_peucker_ordered(points, target)
+        } else {
+            douglas_peucker(points, target * factor)
+        };
+        Self::from_kept(d, g, points, base_params, free, &kept, cap, options)
+    }
+
+    /// [`seeded`](Self::seeded) from the vertices `kept` (ascending, the first and the last
+    /// point among them) of a Douglas–Peucker polyline already computed.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn from_kept(
+        d: D,
+        g: G,
+        points: &'a PointSet,
+        base_params: &[f64],
+        free: bool,
+        kept: &[usize],
+        cap: usize,
+        options: &ToleranceOptions,
+    ) -> Option<Self> {
+        let p = g.get();
+        let last = points.len() - 1;
+        let mut vertices = vec![0];
+        let mut interior: Vec<f64> = Vec::with_capacity(kept.len());
+        for &i in &kept[1..kept.len() - 1] {
+            let u = base_params[i];
+            if u > interior.last().copied().unwrap_or(0.0) && u < 1.0 {
+                interior.push(u);
+                vertices.push(i);
+            }
+        }
+        vertices.push(last);
+        if vertices.len() + p - 1 > cap {
+            // Too many for the cap: the cap's count of control points on uniform knots.
+            let mut f = Fitter::with_knots(
+                d,
+                g,
+                points,
+                base_params.to_vec(),
+                free,
+                clamped_uniform_knots(cap, p),
+            )?;
+            if options.pin_ends {
+                f.pin_ends();
+            }
+            if free {
+                f.correct_all(4);
+            }
+            return Some(f);
+        }
+        let mut knots = vec![0.0; p + 1];
+        knots.extend(interior);
+        knots.extend(std::iter::repeat_n(1.0, p + 1));
+        let mut f = if p == 1 {
+            // The polyline itself: control points at the kept vertices.
+            let dim = d.get();
+            let mut f = Fitter {
+                d,
+                g,
+                points,
+                free,
+                reweight: false,
+                pinned: false,
+                err: vec![0.0; points.len()],
+                weight: vec![1.0; points.len()],
+                params: base_params.to_vec(),
+                knots,
+                ctrl: points.subset(&vertices),
+                scratch: Scratch::new(p, dim),
+                c: vec![0.0; dim],
+                c2: vec![0.0; dim],
+                buffers: RefitBuffers::default(),
+                undo: Undo::default(),
+                span_hint: p,
+            };
+            f.measure_range(0, points.len());
+            f
+        } else {
+            Fitter::with_knots(d, g, points, base_params.to_vec(), free, knots)?
+        };
+        if options.pin_ends {
+            f.pin_ends();
+        }
+        if free {
+            f.correct_all(4);
+        }
+        Some(f)
+    }
+
+    /// Puts the end control points on the first and last point and keeps them there.
+    pub(super) fn pin_ends(&mut self) {
+        let (n, last) = (self.n_ctrl(), self.points.len() - 1);
+        self.ctrl.get_mut(0).copy_from_slice(self.points.get(0));
+        self.ctrl
+            .get_mut(n - 1)
+            .copy_from_slice(self.points.get(last));
+        self.pinned = true;
+        self.measure_range(0, self.points.len());
+    }
+
+    fn p(&self) -> usize {
+        self.g.get()
+    }
+
+    /// The line ends where it starts (a ring given as a line).
+    fn closed(&self) -> bool {
+        let n = self.points.len();
+        n > 2 && self.points.get(0) == self.points.get(n - 1)
+    }
+
+    pub(super) fn n_ctrl(&self) -> usize {
+        self.ctrl.len()
+    }
+
+    pub(super) fn max_error(&self) -> f64 {
+        self.err.iter().fold(0.0, |a, &b| a.max(b))
+    }
+
+    /// The fitted spline; `None` when it is not a valid spline (two neighbouring control
+    /// points (nearly) antipodal, as a fit along a great circle can make): that candidate is
+    /// dropped rather than returned.
+    pub(super) fn into_curve(self, rule: KnotRule) -> Option<Curve> {
+        let spline = SphericalBSpline::try_new(self.p(), self.knots, self.ctrl).ok()?;
+        Some(Curve {
+            spline,
+            params: self.params,
+            rule,
+        })
+    }
+
+    fn last_span(&self) -> usize {
+        let (p, n) = (self.p(), self.n_ctrl());
+        (p..n)
+            .rev()
+            .find(|&k| self.knots[k] < self.knots[k + 1])
+            .unwrap_or(p)
+    }
+
+    /// The data points whose curve point depends on control points `c0 .. c1`.
+    fn window_points(&self, c0: usize, c1: usize) -> (usize, usize) {
+        let p = self.p();
+        let last = self.last_span();
+        let kmin = c0.max(p);
+        let kmax = (c1 + p - 1).min(last);
+        if kmin > kmax {
+            return (0, 0);
+        }
+        let lo = if kmin == p {
+            f64::NEG_INFINITY
+        } else {
+            self.knots[kmin]
+        };
+        let hi = if kmax == last {
+            f64::INFINITY
+        } else {
+            self.knots[kmax + 1]
+        };
+        let j0 = self.params.partition_point(|&t| t < lo);
+        let j1 = self.params.partition_point(|&t| t < hi);
+        (j0, j1)
+    }
+
+    fn error_at(&mut self, j: usize, t: f64) -> f64 {
+        eval_curve::<D, G, false>(
+            self.d,
+            self.g,
+            &self.knots,
+            &self.ctrl,
+            t,
+            &mut self.span_hint,
+            &mut self.scratch,
+            &mut self.c,
+        );
+        angle(self.d, self.points.get(j), &self.c)
+    }
+
+    /// Measures points `j0 .. j1` into `err`; returns (max, sum of squares).
+    fn measure_range(&mut self, j0: usize, j1: usize) -> (f64, f64) {
+        let (mut max, mut sq): (f64, f64) = (0.0, 0.0);
+        for j in j0..j1 {
+            let e = self.error_at(j, self.params[j]);
+            self.err[j] = e;
+            max = max.max(e);
+            sq += self.weight[j] * e * e;
+        }
+        (max, sq)
+    }
+
+    /// The same curve family with uniform knots (none stored). For degree 1 the polyline is
+    /// unchanged (only its speed changes), so parameters are mapped span by span and the errors
+    /// stay the same; for higher degrees the curve is refitted. `None` when the target is missed.
+    pub(super) fn to_uniform(&self, target: f64) -> Option<Curve> {
+        let p = self.p();
+        let n = self.n_ctrl();
+        let knots = clamped_uniform_knots(n, p);
+        let last = self.last_span();
+        let params: Vec<f64> = self
+            .params
+            .iter()
+            .map(|&t| {
+                let k = (self.knots.partition_point(|&u| u <= t).saturating_sub(1)).clamp(p, last);
+                let (a, b) = (self.knots[k], self.knots[k + 1]);
+                let f = if b > a {
+                    ((t - a) / (b - a)).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                knots[k] + f * (knots[k + 1] - knots[k])
+            })
+            .collect();
+        let mut f = Fitter {
+            d: self.d,
+            g: self.g,
+            points: self.points,
+            free: true,
+            reweight: false,
+            pinned: self.pinned,
+            params,
+            knots,
+            ctrl: self.ctrl.clone(),
+            err: vec![0.0; self.points.len()],
+            weight: vec![1.0; self.points.len()],
+            scratch: Scratch::new(p, self.d.get()),
+            c: vec![0.0; self.d.get()],
+            c2: vec![0.0; self.d.get()],
+            buffers: RefitBuffers::default(),
+            undo: Undo::default(),
+            span_hint: p,
+        };
+        let mut max = f.measure_range(0, self.points.len()).0;
+        if max > target && p >= 2 {
+            f.correct_all(4);
+            max = f
+                .refit(0, n, 3 * REFIT_ITERATIONS, target)
+                .max(f.max_error());
+        }
+        if max <= target {
+            f.into_curve(KnotRule::Uniform)
+        } else {
+            None
+        }
+    }
+}

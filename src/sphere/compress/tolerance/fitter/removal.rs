@@ -1,0 +1,162 @@
+//! Greedy knot removal with local refits and Lawson reweighting.
+
+use super::{Fitter, REFIT_ITERATIONS};
+use crate::sphere::curve::bspline::Degree;
+use crate::sphere::geometry::arc::{distance_key, distance_to_arc, ArcFrame};
+use crate::sphere::geometry::point::Dim;
+
+/// Lawson reweighting rounds when a removal misses the tolerance by less than
+/// [`REWEIGHT_WITHIN`] times.
+const REWEIGHT_ROUNDS: usize = 2;
+
+/// See [`REWEIGHT_ROUNDS`].
+const REWEIGHT_WITHIN: f64 = 1.5;
+
+/// Extra control points freed on each side of a removed knot's p + 1 affected ones.
+const REMOVAL_MARGIN: usize = 1;
+
+/// See [`Fitter::hopeless_removal`]: a point this many targets from the chord that would
+/// replace a removed vertex's two segments is not brought back by the window's refit.
+const HOPELESS_REMOVAL: f64 = 2.0;
+
+/// Removal sweeps over all knots (each sweep stops early when nothing could be removed).
+const REMOVAL_SWEEPS: usize = 3;
+
+impl<D: Dim, G: Degree> Fitter<'_, D, G> {
+    /// Greedy knot removal: each interior knot in turn is removed, the p + 1 + 2·margin control
+    /// points around it refitted, and the removal kept when the tolerance still holds.
+    ///
+    /// A removal that failed is tried again in a later sweep only when a removal since then
+    /// changed what it reads (the control points, parameters and errors within reach of its
+    /// window): the refit is deterministic, so an unchanged neighbourhood fails again. This
+    /// skips most of the second and third sweeps without changing the result.
+    pub(in crate::sphere::compress::tolerance) fn reduce(&mut self, target: f64) {
+        let p = self.p();
+        // Per knot: its removal failed and nothing within its reach changed since.
+        let mut clean = vec![false; self.knots.len()];
+        for _ in 0..REMOVAL_SWEEPS {
+            let mut removed = 0;
+            let mut r = p + 1;
+            while r < self.n_ctrl() && !crate::sphere::cancel::cancelled() {
+                if clean[r] {
+                    r += 1;
+                } else if let Some((c0, c1)) = self.try_remove(r, target) {
+                    removed += 1;
+                    clean.remove(r);
+                    // Windows that read control points c0 .. c1 (or their points) belong to
+                    // knots from about c0 − p − margin to c1 + 2p + margin.
+                    let lo = c0.saturating_sub(p + REMOVAL_MARGIN + 2);
+                    let hi = (c1 + 2 * p + REMOVAL_MARGIN + 3).min(clean.len());
+                    clean[lo..hi].iter_mut().for_each(|c| *c = false);
+                } else {
+                    clean[r] = true;
+                    r += 1;
+                }
+            }
+            if removed == 0 {
+                break;
+            }
+        }
+    }
+
+    /// Tries to remove knot `r`: the refitted window of control points when kept.
+    fn try_remove(&mut self, r: usize, target: f64) -> Option<(usize, usize)> {
+        let (p, dim) = (self.p(), self.d.get());
+        let n = self.n_ctrl();
+        if n <= p + 1 {
+            return None;
+        }
+        let c = r - p.div_ceil(2);
+        if p == 1 && self.hopeless_removal(c, target) {
+            return None;
+        }
+        // Only the window changes: it alone is saved, and the removal is undone in place.
+        let mut undo = std::mem::take(&mut self.undo);
+        let knot_removed = self.knots.remove(r);
+        undo.removed.clear();
+        undo.removed.extend_from_slice(self.ctrl.get(c));
+        self.ctrl.remove(c);
+        let n = n - 1;
+        let c0 = (r + 1).saturating_sub(p + 2 + REMOVAL_MARGIN);
+        let c1 = (r + REMOVAL_MARGIN).min(n);
+        undo.ctrl.clear();
+        undo.ctrl
+            .extend_from_slice(&self.ctrl.as_flat()[c0 * dim..c1 * dim]);
+        let (j0, j1) = self.window_points(c0, c1);
+        undo.params.clear();
+        undo.params.extend_from_slice(&self.params[j0..j1]);
+        undo.err.clear();
+        undo.err.extend_from_slice(&self.err[j0..j1]);
+        let mut max = self.refit_or_give_up(c0, c1, REFIT_ITERATIONS, target, 4.0, false);
+        if self.reweight {
+            let mut round = 0;
+            while max > target && max <= REWEIGHT_WITHIN * target && round < REWEIGHT_ROUNDS {
+                for j in j0..j1 {
+                    let r = self.err[j] / target;
+                    self.weight[j] *= 1.0 + r * r * r * r;
+                }
+                max = self.refit(c0, c1, REFIT_ITERATIONS, target);
+                round += 1;
+            }
+            self.weight[j0..j1].iter_mut().for_each(|w| *w = 1.0);
+        }
+        let kept = max <= target && self.vertices_near_the_line(c0, c1, target);
+        if !kept {
+            self.restore(c0, &undo.ctrl);
+            self.ctrl.insert(c, &undo.removed);
+            self.knots.insert(r, knot_removed);
+            self.params[j0..j1].copy_from_slice(&undo.params);
+            self.err[j0..j1].copy_from_slice(&undo.err);
+        }
+        self.undo = undo;
+        kept.then_some((c0, c1))
+    }
+
+    /// For a polyline (degree 1): removing vertex `c` replaces its two segments by the chord
+    /// between its neighbours; when a data point of those segments lies farther than
+    /// [`HOPELESS_REMOVAL`] times the target from that chord, the local refit (which moves the
+    /// neighbours a little) cannot bring it back, and trying costs a Gauss–Newton refit.
+    fn hopeless_removal(&self, c: usize, target: f64) -> bool {
+        let n = self.n_ctrl();
+        if c == 0 || c + 1 >= n {
+            return false;
+        }
+        // Degree 1: control point i sits at knot i + 1; the two spans around c run from
+        // knot c to knot c + 2.
+        let (lo, hi) = (self.knots[c], self.knots[c + 2]);
+        let j0 = self.params.partition_point(|&t| t < lo);
+        let j1 = self.params.partition_point(|&t| t <= hi);
+        let chord = ArcFrame::new(self.d, self.ctrl.get(c - 1), self.ctrl.get(c + 1));
+        let limit = HOPELESS_REMOVAL * target;
+        if chord.is_antipodal() {
+            return (j0..j1).any(|j| chord.distance_dyn(self.points.get(j)) > limit);
+        }
+        // Compared by their keys: no square root or arcsine per point.
+        let key = distance_key(limit);
+        (j0..j1).any(|j| chord.distance_key(self.d, self.points.get(j)) > key)
+    }
+
+    /// For a polyline (degree 1), whether control points `c0 .. c1` lie within `target` of the
+    /// input segment at their parameter. The vertex errors bound the input's vertices against
+    /// the curve; the curve's own corners are what can stray from the input between them (a
+    /// removal that cuts across a fjord whose points all stay near the new chord, in order),
+    /// and such a curve would fail the two-way check later, after all the work. Higher degrees
+    /// are left to that check.
+    fn vertices_near_the_line(&self, c0: usize, c1: usize, target: f64) -> bool {
+        if self.p() != 1 {
+            return true;
+        }
+        let n = self.points.len();
+        (c0.max(1)..c1.min(self.n_ctrl() - 1)).all(|i| {
+            let u = self.knots[i + 1];
+            let j = self.params.partition_point(|&t| t <= u).clamp(1, n - 1) - 1;
+            let v = self.ctrl.get(i);
+            let d = distance_to_arc(v, self.points.get(j), self.points.get(j + 1));
+            // At a data parameter exactly, either neighbouring segment will do.
+            d <= target
+                || (j > 0
+                    && self.params[j] == u
+                    && distance_to_arc(v, self.points.get(j - 1), self.points.get(j)) <= target)
+        })
+    }
+}
