@@ -3,24 +3,22 @@
 
 use super::fitter::{Fitter, REFIT_ITERATIONS};
 use super::pieces::polyline_in_pieces;
-use super::{stored_numbers, Curve, KnotRule, ToleranceOptions};
+use super::{stored_numbers, Curve, KnotRule, Line, ToleranceOptions};
 use crate::sphere::curve::bspline::{clamped_uniform_knots, with_degree, Degree};
 use crate::sphere::fit::metrics::{measure, ErrorMetrics};
 use crate::sphere::geometry::point::{Dim, PointSet};
 use crate::sphere::SphereError;
 
 /// Every degree's curves at one vertex target (see the module docs), with honest errors.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn search(
-    points: &PointSet,
-    base_params: &[f64],
-    free: bool,
+    line: Line,
     target: f64,
     cap: usize,
     options: &ToleranceOptions,
     degrees: &[usize],
     yardstick: usize,
 ) -> Result<Searched, SphereError> {
+    let (points, free) = (line.points, line.free);
     let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
     let mut closest: Option<(Curve, ErrorMetrics)> = None;
     for &p in degrees {
@@ -53,15 +51,7 @@ pub(super) fn search(
             .chain((yardstick < usize::MAX).then_some(yardstick))
             .min();
         let curves = crate::with_dim!(points.dim(), |d| with_degree!(p, |g| fit_degree(
-            d,
-            g,
-            points,
-            base_params,
-            free,
-            target,
-            cap,
-            budget,
-            options
+            d, g, line, target, cap, budget, options
         )));
         for c in curves {
             // Honest errors: measured afresh by the library's own pass on the returned curve.
@@ -144,18 +134,16 @@ fn smooth_bends(ctrl: &PointSet) -> bool {
 /// among the others.
 pub(super) type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
 
-#[allow(clippy::too_many_arguments)]
 fn fit_degree<D: Dim, G: Degree>(
     d: D,
     g: G,
-    points: &PointSet,
-    base_params: &[f64],
-    free: bool,
+    line: Line,
     target: f64,
     cap: usize,
     budget: Option<usize>,
     options: &ToleranceOptions,
 ) -> Vec<Curve> {
+    let (points, free) = (line.points, line.free);
     let p = g.get();
     let mut out = Vec::new();
     if p + 1 > cap {
@@ -186,8 +174,7 @@ fn fit_degree<D: Dim, G: Degree>(
         }
     }
     if !free || p == 1 || options.adaptive_knots {
-        let Some(mut f) = Fitter::seeded(d, g, points, base_params, free, target, cap, options)
-        else {
+        let Some(mut f) = Fitter::seeded(d, g, line, target, cap, options) else {
             return out;
         };
         f.reweight = options.reweight;
@@ -211,7 +198,7 @@ fn fit_degree<D: Dim, G: Degree>(
             Some(b) => (b.saturating_sub(2) / (dim - 1)).min(cap),
             None => cap.min(points.len()),
         };
-        if let Some(u) = uniform_search(d, g, points, base_params, target, most, options.pin_ends) {
+        if let Some(u) = uniform_search(d, g, line, target, most, options.pin_ends) {
             out.push(u);
         }
     }
@@ -223,8 +210,7 @@ fn fit_degree<D: Dim, G: Degree>(
 fn uniform_search<D: Dim, G: Degree>(
     d: D,
     g: G,
-    points: &PointSet,
-    base_params: &[f64],
+    line: Line,
     target: f64,
     most: usize,
     pin_ends: bool,
@@ -235,7 +221,7 @@ fn uniform_search<D: Dim, G: Degree>(
     }
     let try_count = |n_ctrl: usize| -> Option<Fitter<D, G>> {
         let knots = clamped_uniform_knots(n_ctrl, p);
-        let mut f = Fitter::with_knots(d, g, points, base_params.to_vec(), true, knots)?;
+        let mut f = Fitter::with_knots(d, g, Line { free: true, ..line }, knots)?;
         if pin_ends {
             f.pin_ends();
         }

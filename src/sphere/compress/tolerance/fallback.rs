@@ -2,12 +2,11 @@
 //! then every point, for when no fitted curve meets the tolerance (and as the yardstick a
 //! fitted curve must store fewer numbers than).
 
-use super::{Curve, KnotRule};
+use super::{Curve, KnotRule, Line};
 use crate::sphere::compress::simplify::{
     douglas_peucker, douglas_peucker_ordered, synchronized_douglas_peucker,
 };
 use crate::sphere::curve::bspline::{clamped_uniform_knots, SphericalBSpline};
-use crate::sphere::geometry::point::PointSet;
 
 /// How many polyline fallbacks [`polyline_candidate`] knows.
 pub(super) const POLYLINE_CANDIDATES: usize = 4;
@@ -18,13 +17,12 @@ pub(super) const POLYLINE_CANDIDATES: usize = 4;
 /// are the time-aware Douglas–Peucker's (TD-TR, the error at a point's own parameter) and the
 /// knots are the kept points' parameters (stored); the polyline through every point then has
 /// error 0 at every parameter, so strictly increasing parameters always meet the tolerance.
-pub(super) fn polyline_candidate(
-    points: &PointSet,
-    base_params: &[f64],
-    free: bool,
-    tolerance_rad: f64,
-    k: usize,
-) -> Option<Curve> {
+pub(super) fn polyline_candidate(line: Line, tolerance_rad: f64, k: usize) -> Option<Curve> {
+    let Line {
+        points,
+        params: base_params,
+        free,
+    } = line;
     // Douglas–Peucker bounds the vertices' distance to the kept chords; the ordered two-way
     // distance can be a little more, hence the second try a hair under the tolerance.
     // With given parameters (times) the vertex error is the synchronized distance, so the
@@ -43,15 +41,15 @@ pub(super) fn polyline_candidate(
         (false, 2) => every(),
         _ => return None,
     };
-    polyline_through(points, base_params, free, &kept)
+    polyline_through(line, &kept)
 }
 
-fn polyline_through(
-    points: &PointSet,
-    base_params: &[f64],
-    free: bool,
-    kept: &[usize],
-) -> Option<Curve> {
+fn polyline_through(line: Line, kept: &[usize]) -> Option<Curve> {
+    let Line {
+        points,
+        params: base_params,
+        free,
+    } = line;
     let ctrl = points.subset(kept);
     let m = kept.len();
     if free {

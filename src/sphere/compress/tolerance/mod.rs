@@ -419,16 +419,19 @@ pub fn fit_to_tolerance(
     // Douglas–Peucker's polyline is the yardstick: a curve storing more numbers than it is
     // never worth proving.
     // The other fallbacks are only built when they are needed.
-    let mut first_fallback = polyline_candidate(points, &base_params, free, tolerance_rad, 0);
+    let line = Line {
+        points,
+        params: &base_params,
+        free,
+    };
+    let mut first_fallback = polyline_candidate(line, tolerance_rad, 0);
     let yardstick = first_fallback
         .as_ref()
         .map(|c| stored_numbers(&c.spline, c.rule))
         .unwrap_or(usize::MAX);
     'shares: for &share in VERTEX_SHARES.iter() {
         let (found, near) = search(
-            points,
-            &base_params,
-            free,
+            line,
             internal_target(share * tolerance_rad),
             cap,
             options,
@@ -482,7 +485,7 @@ pub fn fit_to_tolerance(
         for c in (0..POLYLINE_CANDIDATES)
             .filter_map(|k| match k {
                 0 => first_fallback.take(),
-                _ => polyline_candidate(points, &base_params, free, tolerance_rad, k),
+                _ => polyline_candidate(line, tolerance_rad, k),
             })
             .filter(|c| c.spline.control_points().len() <= cap)
         {
@@ -614,6 +617,15 @@ fn candidate(
 /// by another code path (rounding differences of ~1e-16 rad) cannot land above it.
 fn internal_target(tolerance_rad: f64) -> f64 {
     tolerance_rad * (1.0 - 1e-9) - 1e-15
+}
+
+/// The line being fitted: its points, the parameters fits start from (given, or from the
+/// parameterization), and whether those move to foot points (`free`) or are given (times).
+#[derive(Clone, Copy)]
+struct Line<'a> {
+    points: &'a PointSet,
+    params: &'a [f64],
+    free: bool,
 }
 
 /// A finished curve and its data parameters.

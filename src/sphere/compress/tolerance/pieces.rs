@@ -1,7 +1,7 @@
 //! A long line's degree-1 fit in pieces cut at sharp corners, fitted in parallel and joined.
 
 use super::fitter::Fitter;
-use super::{Curve, KnotRule, ToleranceOptions};
+use super::{Curve, KnotRule, Line, ToleranceOptions};
 use crate::sphere::compress::simplify::douglas_peucker_ordered;
 use crate::sphere::curve::bspline::{clamped_uniform_knots, Degree, SphericalBSpline};
 use crate::sphere::fit::adaptive_knots::turning_angles;
@@ -84,7 +84,12 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
             let from = seed.partition_point(|&i| i < a);
             let to = seed.partition_point(|&i| i <= b);
             let kept: Vec<usize> = seed[from..to].iter().map(|&i| i - a).collect();
-            let mut f = Fitter::from_kept(d, g, &sub, &params, true, &kept, n, &piece_options)?;
+            let line = Line {
+                points: &sub,
+                params: &params,
+                free: true,
+            };
+            let mut f = Fitter::from_kept(d, g, line, &kept, n, &piece_options)?;
             f.reweight = options.reweight;
             f.refine(target, n);
             let max = f.max_error();

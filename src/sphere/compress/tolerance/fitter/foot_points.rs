@@ -33,8 +33,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                     &self.knots,
                     &self.ctrl,
                     t,
-                    &mut self.span_hint,
-                    &mut self.scratch,
+                    &mut self.eval,
                     &mut self.c,
                 );
                 let width = (self.knots[k + 1] - self.knots[k]).max(1e-12);
@@ -51,8 +50,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                     &self.knots,
                     &self.ctrl,
                     tb,
-                    &mut self.span_hint,
-                    &mut self.scratch,
+                    &mut self.eval,
                     &mut self.c2,
                 );
                 let mut dc = [0.0; 16];
@@ -76,8 +74,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                         &self.knots,
                         &self.ctrl,
                         ta,
-                        &mut self.span_hint,
-                        &mut self.scratch,
+                        &mut self.eval,
                         &mut self.c2,
                     );
                     for x in 0..dim {

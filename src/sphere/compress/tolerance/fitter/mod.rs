@@ -9,7 +9,7 @@ mod insertion;
 mod refit;
 mod removal;
 
-use super::{Curve, KnotRule, ToleranceOptions};
+use super::{Curve, KnotRule, Line, ToleranceOptions};
 use crate::sphere::compress::simplify::{douglas_peucker, douglas_peucker_ordered};
 use crate::sphere::curve::bspline::{
     clamped_uniform_knots, Degree, Frame, Scratch, SphericalBSpline,
@@ -41,15 +41,30 @@ pub(super) struct Fitter<'a, D: Dim, G: Degree> {
     /// Least-squares weight of each point: 1, raised around points that stay out of tolerance
     /// while a removal is tried (Lawson-style reweighting towards the minimax fit).
     weight: Vec<f64>,
-    scratch: Scratch,
+    eval: Evaluator,
     c: Vec<f64>,
     c2: Vec<f64>,
     /// Kept between refits: a removal sweep refits thousands of small windows.
     buffers: RefitBuffers,
     /// What a removal saves to undo itself, kept between removals.
     undo: Undo,
-    /// The span of the last evaluation ([`eval_curve`]).
+}
+
+/// What consecutive evaluations of the working curve share ([`eval_curve`]): the de Boor
+/// scratch (with the contribution coefficients of the last evaluation) and the span of the last
+/// evaluation.
+struct Evaluator {
+    scratch: Scratch,
     span_hint: usize,
+}
+
+impl Evaluator {
+    fn new(p: usize, dim: usize) -> Evaluator {
+        Evaluator {
+            scratch: Scratch::new(p, dim),
+            span_hint: p,
+        }
+    }
 }
 
 /// The window a knot removal changes, saved before its refit ([`Fitter::try_remove`]).
@@ -71,40 +86,40 @@ struct RefitBuffers {
     saved: Vec<f64>,
 }
 
-/// C(t) into `out`; with `CONTRIB` the contribution coefficients are in `scratch.contrib`.
-/// Returns the span, and keeps it in `hint`: the fitter's passes go through the points in
-/// order, so the next span is this one or the next and no binary search over the knots is
-/// needed.
+/// C(t) into `out`; with `CONTRIB` the contribution coefficients are in
+/// `eval.scratch.contrib`. Returns the span, and keeps it in `eval.span_hint`: the fitter's
+/// passes go through the points in order, so the next span is this one or the next and no
+/// binary search over the knots is needed.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn eval_curve<D: Dim, G: Degree, const CONTRIB: bool>(
     d: D,
     g: G,
     knots: &[f64],
     ctrl: &PointSet,
     t: f64,
-    hint: &mut usize,
-    scratch: &mut Scratch,
+    eval: &mut Evaluator,
     out: &mut [f64],
 ) -> usize {
     let frame = Frame::new(g.get(), knots, ctrl);
-    let k = frame.span_from((*hint).clamp(frame.p, frame.last_span), t);
-    *hint = k;
-    frame.eval::<D, G, CONTRIB, false>(d, g, k, t, scratch, out);
+    let k = frame.span_from(eval.span_hint.clamp(frame.p, frame.last_span), t);
+    eval.span_hint = k;
+    frame.eval::<D, G, CONTRIB, false>(d, g, k, t, &mut eval.scratch, out);
     k
 }
 
 impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
-    pub(super) fn with_knots(
+    /// The working curve `knots`, `ctrl` for `points` at data parameters `params` (moving to
+    /// foot points when `free`), every point's error measured.
+    fn new(
         d: D,
         g: G,
         points: &'a PointSet,
-        params: Vec<f64>,
         free: bool,
+        params: Vec<f64>,
         knots: Vec<f64>,
-    ) -> Option<Self> {
-        let p = g.get();
-        let ctrl = greville_control_points(points, &params, &knots, p).ok()?;
+        ctrl: PointSet,
+    ) -> Self {
+        let (p, dim, n) = (g.get(), d.get(), points.len());
         let mut f = Fitter {
             d,
             g,
@@ -112,32 +127,35 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             free,
             reweight: false,
             pinned: false,
-            err: vec![0.0; points.len()],
-            weight: vec![1.0; points.len()],
+            err: vec![0.0; n],
+            weight: vec![1.0; n],
             params,
             knots,
             ctrl,
-            scratch: Scratch::new(p, d.get()),
-            c: vec![0.0; d.get()],
-            c2: vec![0.0; d.get()],
+            eval: Evaluator::new(p, dim),
+            c: vec![0.0; dim],
+            c2: vec![0.0; dim],
             buffers: RefitBuffers::default(),
             undo: Undo::default(),
-            span_hint: p,
         };
-        f.measure_range(0, points.len());
-        Some(f)
+        f.measure_range(0, n);
+        f
+    }
+
+    /// The curve on `knots` through the Greville control points of `line` (at `line.params`).
+    pub(super) fn with_knots(d: D, g: G, line: Line<'a>, knots: Vec<f64>) -> Option<Self> {
+        let ctrl = greville_control_points(line.points, line.params, &knots, g.get()).ok()?;
+        let (points, free, params) = (line.points, line.free, line.params.to_vec());
+        Some(Fitter::new(d, g, points, free, params, knots, ctrl))
     }
 
     /// The first curve: for degree 1 the Douglas–Peucker polyline at the tolerance itself (which
     /// meets it once parameters are foot points); for higher degrees knots at the vertices of a
     /// coarser Douglas–Peucker, the curve then fitted.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn seeded(
         d: D,
         g: G,
-        points: &'a PointSet,
-        base_params: &[f64],
-        free: bool,
+        line: Line<'a>,
         target: f64,
         cap: usize,
         options: &ToleranceOptions,
@@ -147,90 +165,55 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         // The polyline seed keeps the points in order along its chords (fjords, spikes), so it
         // meets the target once parameters are foot points, without knot insertions.
         let kept = if p == 1 {
-            douglas_peucker_ordered(points, target)
+            douglas_peucker_ordered(line.points, target)
         } else {
-            douglas_peucker(points, target * factor)
+            douglas_peucker(line.points, target * factor)
         };
-        Self::from_kept(d, g, points, base_params, free, &kept, cap, options)
+        Self::from_kept(d, g, line, &kept, cap, options)
     }
 
     /// [`seeded`](Self::seeded) from the vertices `kept` (ascending, the first and the last
     /// point among them) of a Douglas–Peucker polyline already computed.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn from_kept(
         d: D,
         g: G,
-        points: &'a PointSet,
-        base_params: &[f64],
-        free: bool,
+        line: Line<'a>,
         kept: &[usize],
         cap: usize,
         options: &ToleranceOptions,
     ) -> Option<Self> {
         let p = g.get();
-        let last = points.len() - 1;
+        let last = line.points.len() - 1;
         let mut vertices = vec![0];
         let mut interior: Vec<f64> = Vec::with_capacity(kept.len());
         for &i in &kept[1..kept.len() - 1] {
-            let u = base_params[i];
+            let u = line.params[i];
             if u > interior.last().copied().unwrap_or(0.0) && u < 1.0 {
                 interior.push(u);
                 vertices.push(i);
             }
         }
         vertices.push(last);
-        if vertices.len() + p - 1 > cap {
+        let mut f = if vertices.len() + p - 1 > cap {
             // Too many for the cap: the cap's count of control points on uniform knots.
-            let mut f = Fitter::with_knots(
-                d,
-                g,
-                points,
-                base_params.to_vec(),
-                free,
-                clamped_uniform_knots(cap, p),
-            )?;
-            if options.pin_ends {
-                f.pin_ends();
-            }
-            if free {
-                f.correct_all(4);
-            }
-            return Some(f);
-        }
-        let mut knots = vec![0.0; p + 1];
-        knots.extend(interior);
-        knots.extend(std::iter::repeat_n(1.0, p + 1));
-        let mut f = if p == 1 {
-            // The polyline itself: control points at the kept vertices.
-            let dim = d.get();
-            let mut f = Fitter {
-                d,
-                g,
-                points,
-                free,
-                reweight: false,
-                pinned: false,
-                err: vec![0.0; points.len()],
-                weight: vec![1.0; points.len()],
-                params: base_params.to_vec(),
-                knots,
-                ctrl: points.subset(&vertices),
-                scratch: Scratch::new(p, dim),
-                c: vec![0.0; dim],
-                c2: vec![0.0; dim],
-                buffers: RefitBuffers::default(),
-                undo: Undo::default(),
-                span_hint: p,
-            };
-            f.measure_range(0, points.len());
-            f
+            Fitter::with_knots(d, g, line, clamped_uniform_knots(cap, p))?
         } else {
-            Fitter::with_knots(d, g, points, base_params.to_vec(), free, knots)?
+            let mut knots = vec![0.0; p + 1];
+            knots.extend(interior);
+            knots.extend(std::iter::repeat_n(1.0, p + 1));
+            if p == 1 {
+                // The polyline itself: control points at the kept vertices.
+                let ctrl = line.points.subset(&vertices);
+                let params = line.params.to_vec();
+                Fitter::new(d, g, line.points, line.free, params, knots, ctrl)
+            } else {
+                Fitter::with_knots(d, g, line, knots)?
+            }
         };
         if options.pin_ends {
             f.pin_ends();
         }
-        if free {
+        if line.free {
             f.correct_all(4);
         }
         Some(f)
@@ -316,8 +299,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             &self.knots,
             &self.ctrl,
             t,
-            &mut self.span_hint,
-            &mut self.scratch,
+            &mut self.eval,
             &mut self.c,
         );
         angle(self.d, self.points.get(j), &self.c)
@@ -357,26 +339,10 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 knots[k] + f * (knots[k + 1] - knots[k])
             })
             .collect();
-        let mut f = Fitter {
-            d: self.d,
-            g: self.g,
-            points: self.points,
-            free: true,
-            reweight: false,
-            pinned: self.pinned,
-            params,
-            knots,
-            ctrl: self.ctrl.clone(),
-            err: vec![0.0; self.points.len()],
-            weight: vec![1.0; self.points.len()],
-            scratch: Scratch::new(p, self.d.get()),
-            c: vec![0.0; self.d.get()],
-            c2: vec![0.0; self.d.get()],
-            buffers: RefitBuffers::default(),
-            undo: Undo::default(),
-            span_hint: p,
-        };
-        let mut max = f.measure_range(0, self.points.len()).0;
+        let ctrl = self.ctrl.clone();
+        let mut f = Fitter::new(self.d, self.g, self.points, true, params, knots, ctrl);
+        f.pinned = self.pinned;
+        let mut max = f.max_error();
         if max > target && p >= 2 {
             f.correct_all(4);
             max = f

@@ -27,7 +27,6 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// long whole-curve fits of the uniform-knot search, where a doomed fit otherwise runs
     /// all its passes. (Not in removals: there the short refits decide which knots go, and
     /// stopping them early changed the greedy order for the worse on the 10m border.)
-    #[allow(clippy::too_many_arguments)]
     pub(in crate::sphere::compress::tolerance) fn refit_or_give_up(
         &mut self,
         c0: usize,
@@ -91,8 +90,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                     &self.knots,
                     &self.ctrl,
                     t,
-                    &mut self.span_hint,
-                    &mut self.scratch,
+                    &mut self.eval,
                     &mut self.c,
                 );
                 let q = self.points.get(j);
@@ -110,7 +108,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                 };
                 let cos = dot(d, q, &self.c);
                 let wj = self.weight[j];
-                let coef = &self.scratch.contrib;
+                let coef = &self.eval.scratch.contrib;
                 let first = k - p;
                 for m in 0..=p {
                     let i = first + m;
