@@ -42,9 +42,7 @@ pub fn correct_parameters(
         .par_chunks(CHUNK)
         .flat_map_iter(|js| {
             let frame = Frame::new(p, spline.knots(), spline.control_points());
-            let mut scratch = Scratch::new(p, dim);
-            let mut c = vec![0.0; dim];
-            let mut c2 = vec![0.0; dim];
+            let mut work = FootScratch::new(p, dim);
             let mut out = Vec::new();
             for &j in js {
                 let t = with_degree!(p, |g| foot_point(
@@ -54,9 +52,7 @@ pub fn correct_parameters(
                     points.get(j),
                     old[j],
                     (old[j - 1], old[j + 1]),
-                    &mut scratch,
-                    &mut c,
-                    &mut c2
+                    &mut work
                 ));
                 if t != old[j] {
                     out.push((j, t));
@@ -78,7 +74,26 @@ pub fn correct_parameters(
     moved.len()
 }
 
-#[allow(clippy::too_many_arguments)]
+/// The working memory of [`foot_point`], one per parallel work item: the de Boor scratch and
+/// the curve points at the current and the trial parameter.
+struct FootScratch {
+    scratch: Scratch,
+    c: Vec<f64>,
+    c2: Vec<f64>,
+}
+
+impl FootScratch {
+    fn new(p: usize, dim: usize) -> FootScratch {
+        FootScratch {
+            scratch: Scratch::new(p, dim),
+            c: vec![0.0; dim],
+            c2: vec![0.0; dim],
+        }
+    }
+}
+
+/// The parameter of `q`'s foot point on the curve, from `t0` by Newton steps, within
+/// `[lo, hi]`; a step is kept only when it lowers the error.
 fn foot_point<G: Degree>(
     frame: &Frame<'_>,
     knots: &[f64],
@@ -86,10 +101,9 @@ fn foot_point<G: Degree>(
     q: &[f64],
     t0: f64,
     (lo, hi): (f64, f64),
-    scratch: &mut Scratch,
-    c: &mut [f64],
-    c2: &mut [f64],
+    work: &mut FootScratch,
 ) -> f64 {
+    let (scratch, c, c2) = (&mut work.scratch, &mut work.c[..], &mut work.c2[..]);
     let d = Dynamic(q.len());
     let dim = q.len();
     let eval = |t: f64, scratch: &mut Scratch, out: &mut [f64]| {

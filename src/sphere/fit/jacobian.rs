@@ -12,6 +12,7 @@
 //! coefficients D_i alone, this includes how the SLERP weights change with the control points,
 //! so Gauss–Newton converges quadratically to the geodesic least-squares optimum.
 
+use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::geometry::point::{sinc_series, Arc, PointSet, SERIES_ANGLE_MAX_RAD};
 
 /// Orthonormal bases of the tangent planes of every control point: `dim − 1` vectors of `dim`
@@ -99,18 +100,17 @@ impl JacobianScratch {
     }
 }
 
-/// Evaluates C(t) in span k into `out` and its derivatives into `s.jac`.
-#[allow(clippy::too_many_arguments)]
+/// Evaluates C(t) in span k of `spline` into `out` and its derivatives into `s.jac`, along the
+/// tangent `bases` of its control points ([`tangent_bases`]).
 pub(crate) fn eval_with_jacobian(
-    p: usize,
-    knots: &[f64],
-    control: &PointSet,
+    spline: &SphericalBSpline,
     bases: &[f64],
     k: usize,
     t: f64,
     s: &mut JacobianScratch,
     out: &mut [f64],
 ) {
+    let (p, knots, control) = (spline.degree(), spline.knots(), spline.control_points());
     let dim = control.dim();
     let nb = dim - 1;
     let ndir = (p + 1) * nb;
@@ -201,16 +201,7 @@ mod tests {
                 let mut scratch = JacobianScratch::new(3, 3);
                 let mut c = [0.0; 3];
                 let k = s.knots().partition_point(|&u| u <= t) - 1;
-                eval_with_jacobian(
-                    3,
-                    s.knots(),
-                    s.control_points(),
-                    &bases,
-                    k,
-                    t,
-                    &mut scratch,
-                    &mut c,
-                );
+                eval_with_jacobian(&s, &bases, k, t, &mut scratch, &mut c);
                 let direct = s.evaluate(t);
                 assert!((0..3).all(|x| (c[x] - direct[x]).abs() < 1e-15));
                 let h = 1e-6;

@@ -210,8 +210,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
                     let mut r = vec![0.0; dim];
                     for (j, &t) in ts.iter().enumerate() {
                         k = frame.span_from(k, t);
-                        let (knots, control) = (spline.knots(), spline.control_points());
-                        eval_with_jacobian(p, knots, control, &bases, k, t, &mut js, &mut c_pt);
+                        eval_with_jacobian(spline, &bases, k, t, &mut js, &mut c_pt);
                         let q = points.get(offset + j);
                         let (theta, scale) = log_residual(d, q, &c_pt);
                         out.errors.add(offset + j, theta);

@@ -428,22 +428,22 @@ fn weight_rate(theta: f64, sin_theta: f64, cos_theta: f64, t: f64) -> f64 {
     }
 }
 
+/// One SLERP `G[a, b](t)` of a joint (eqs. 15–17): its end points, their arc, and the weights
+/// `w` at fraction `t`.
+struct SlerpAt<'a> {
+    a: &'a [f64],
+    b: &'a [f64],
+    arc: &'a Arc,
+    w: (f64, f64),
+    t: f64,
+}
+
 /// Jacobians of `s = G[a, b](t) = w0 a + w1 b` with respect to `a` and `b` (for tangent
 /// perturbations): `ds = w0 da + w1 db - g (b . da + a . db)`, `g = (w0' a + w1' b) / sin
 /// theta`, written as dense `dim x dim` row-major matrices.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn slerp_jacobians<D: Dim>(
-    d: D,
-    a: &[f64],
-    b: &[f64],
-    arc: &Arc,
-    w: (f64, f64),
-    t: f64,
-    g: &mut [f64],
-    ja: &mut [f64],
-    jb: &mut [f64],
-) {
+fn slerp_jacobians<D: Dim>(d: D, slerp: SlerpAt, g: &mut [f64], ja: &mut [f64], jb: &mut [f64]) {
+    let SlerpAt { a, b, arc, w, t } = slerp;
     let dim = d.get();
     let h0 = weight_rate(arc.theta, arc.sin_theta, arc.cos_theta, 1.0 - t);
     let h1 = weight_rate(arc.theta, arc.sin_theta, arc.cos_theta, t);
@@ -528,7 +528,7 @@ fn newton_step<D: Dim>(
 ) -> Option<Residuals> {
     let (dim, n) = (d.get(), q.len() - 1);
     let (w, kl) = (work.band.width, work.band.kl);
-    let aux_ro: &[f64] = aux;
+    let system = JointSystem { q, fr, aux };
     work.band
         .a
         .par_chunks_mut(dim * w * JOINT_CHUNK)
@@ -546,7 +546,7 @@ fn newton_step<D: Dim>(
                 .enumerate()
             {
                 let j = 1 + c * JOINT_CHUNK + k;
-                assemble_row(d, q, fr, aux_ro, j, n, (w, kl), rows, rhs, &mut s);
+                assemble_row(d, system, j, (w, kl), rows, rhs, &mut s);
             }
         });
     if !work.band.solve() {
@@ -574,21 +574,29 @@ fn newton_step<D: Dim>(
     None
 }
 
-/// Writes Newton row block j (`dim` rows of the band, local storage) and its right-hand side.
-#[allow(clippy::too_many_arguments)]
+/// What every row of a Newton step reads: the points interpolated, the fractions of the three
+/// SLERPs per joint, and the current auxiliary vertices.
+#[derive(Clone, Copy)]
+struct JointSystem<'a> {
+    q: &'a PointSet,
+    fr: &'a Fractions,
+    aux: &'a [f64],
+}
+
+/// Writes Newton row block j (`dim` rows of the band with width and lower bandwidth `w`, `kl`,
+/// local storage) and its right-hand side.
 #[inline(always)]
 fn assemble_row<D: Dim>(
     d: D,
-    q: &PointSet,
-    fr: &Fractions,
-    aux: &[f64],
+    system: JointSystem,
     j: usize,
-    n: usize,
     (w, kl): (usize, usize),
     rows: &mut [f64],
     rhs: &mut [f64],
     s: &mut RowScratch,
 ) {
+    let JointSystem { q, fr, aux } = system;
+    let n = q.len() - 1;
     let dim = d.get();
     let dd = dim * dim;
     let (ja_m, rest) = s.mats.split_at_mut(dd);
@@ -612,9 +620,30 @@ fn assemble_row<D: Dim>(
         &aux[j * dim..(j + 1) * dim],
         &aux[(j + 1) * dim..(j + 2) * dim],
     );
-    slerp_jacobians(d, dm, dj, &e.arc_a, e.wa, fr.second[j - 1], ga, ja_m, ja_j);
-    slerp_jacobians(d, dj, dp, &e.arc_b, e.wb, fr.first[j], gb, jb_j, jb_p);
-    slerp_jacobians(d, a, b, &e.arc_f, e.wf, fr.junction[j], gf, jf_a, jf_b);
+    let slerp_a = SlerpAt {
+        a: dm,
+        b: dj,
+        arc: &e.arc_a,
+        w: e.wa,
+        t: fr.second[j - 1],
+    };
+    slerp_jacobians(d, slerp_a, ga, ja_m, ja_j);
+    let slerp_b = SlerpAt {
+        a: dj,
+        b: dp,
+        arc: &e.arc_b,
+        w: e.wb,
+        t: fr.first[j],
+    };
+    slerp_jacobians(d, slerp_b, gb, jb_j, jb_p);
+    let slerp_f = SlerpAt {
+        a,
+        b,
+        arc: &e.arc_f,
+        w: e.wf,
+        t: fr.junction[j],
+    };
+    slerp_jacobians(d, slerp_f, gf, jf_a, jf_b);
     matmul(d, jf_a, ja_m, lo);
     project_columns(d, lo, dm);
     // D = (JF_A JA_j + JF_B JB_j) P_j + F d_j^T; `up` holds JF_B JB_j for a moment.
