@@ -37,114 +37,54 @@
 //! needs restarts on this nonlinear problem, while the banded solve removes the dependence on
 //! the conditioning for a cost below one pass.
 
-use super::gls_pia::{FitOptions, FitReport, IterationError};
-use super::metrics::ErrorMetrics;
-use super::pass::{run_pass, PassMode, PassResult};
+use super::damping::{Damping, Run};
+use super::gls_pia::{FitOptions, FitReport, Solver};
+use super::pass::PassMode;
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::geometry::point::{normalize, Dynamic, PointSet};
 
 /// Damping attempts per iteration before the iteration declares it cannot improve further.
 const MAX_DAMPING_TRIES: usize = 8;
 
-/// Tikhonov ridge relative to the largest diagonal of AᵀA (control points whose support holds
-/// no data have zero rows): as in the Gauss–Newton solver.
-const RIDGE_RELATIVE: f64 = 1e-12;
+/// `λ` after a failed undamped step.
+const FIRST_LAMBDA: f64 = 1e-3;
 
 /// Accelerated GLS-PIA from `spline` (knots kept) on points with known parameters: at most
 /// `options.iterations` updates; stops on the error target, when an update lowers the RMS
 /// error by at most `options.stagnation` of it, or when no damped step lowers it.
 pub(crate) fn gls_pia_accelerated(
-    mut spline: SphericalBSpline,
+    spline: SphericalBSpline,
     points: &PointSet,
     params: Vec<f64>,
     options: &FitOptions,
 ) -> FitReport {
-    let mut pass = run_pass(&spline, points, &params, PassMode::Preconditioned);
-    let mut m = pass.errors.metrics();
-    let mut history = vec![record(&m)];
-    let mut iterations = 0;
-    let mut converged = false;
-    let mut lambda = 0.0;
-    while iterations < options.iterations && !options.cancel.is_cancelled() {
-        if m.max_error_rad == 0.0
-            || options
-                .target_max_error_rad
-                .is_some_and(|e| m.max_error_rad <= e)
-        {
-            converged = true;
-            break;
-        }
-        let Some((trial, trial_pass, tm)) =
-            damped_step(&spline, points, &params, &pass, &m, &mut lambda)
-        else {
-            converged = true; // no damped step lowers the loss: GLS-PIA's fixed point
+    let mut run = Run::start(spline, points, &params, PassMode::Preconditioned);
+    let mut damping = Damping::new(FIRST_LAMBDA, MAX_DAMPING_TRIES);
+    while run.step_again(options) {
+        // (AᵀA + λ diag) V = Aᵀ δ, then P_i ← (P_i + V_i) / |P_i + V_i|.
+        let (mode, cols) = (PassMode::Preconditioned, run.spline.dim());
+        let step = damping.first_descent(&run, points, &params, mode, cols, add_and_normalize);
+        let Some(trial) = step else {
+            run.converged = true; // no damped step lowers the loss: GLS-PIA's fixed point
             break;
         };
-        iterations += 1;
-        history.push(record(&tm));
-        let relative = (m.rms_error_rad - tm.rms_error_rad) / m.rms_error_rad;
-        spline = trial;
-        pass = trial_pass;
-        m = tm;
-        if relative <= options.stagnation {
-            converged = true;
+        if run.accept(trial) <= options.stagnation {
+            run.converged = true;
             break;
         }
     }
-    FitReport {
-        spline,
-        parameters: params,
-        metrics: m,
-        iterations,
-        converged,
-        history,
-        solver: super::gls_pia::Solver::GlsPiaAccelerated,
-    }
+    run.report(params, Solver::GlsPiaAccelerated)
 }
 
-fn record(m: &ErrorMetrics) -> IterationError {
-    IterationError {
-        max_error_rad: m.max_error_rad,
-        mean_error_rad: m.mean_error_rad,
-    }
-}
-
-/// Solves `(AᵀA + λ diag) V = Aᵀ δ`, moves `P_i ← (P_i + V_i) / |P_i + V_i|`, and returns the
-/// first trial that lowers the RMS error with its pass (which holds the next system).
-fn damped_step(
-    spline: &SphericalBSpline,
-    points: &PointSet,
-    params: &[f64],
-    pass: &PassResult,
-    m: &ErrorMetrics,
-    lambda: &mut f64,
-) -> Option<(SphericalBSpline, PassResult, ErrorMetrics)> {
-    let band = pass.band.as_ref().expect("preconditioned pass");
-    let ridge = RIDGE_RELATIVE * band.max_diagonal().max(f64::MIN_POSITIVE);
+/// `P_i ← (P_i + V_i) / |P_i + V_i|`, V_i row i of `step`.
+fn add_and_normalize(spline: &mut SphericalBSpline, step: &[f64]) {
     let dim = spline.dim();
-    for _ in 0..MAX_DAMPING_TRIES {
-        let Some(chol) = band.cholesky(*lambda, ridge) else {
-            *lambda = (*lambda * 10.0).max(1e-6);
-            continue;
-        };
-        let mut step = pass.moves.clone();
-        chol.solve_in_place(&mut step, dim);
-        let mut trial = spline.clone();
-        let control = trial.control_points_mut();
-        for i in 0..control.len() {
-            let p = control.get_mut(i);
-            for (x, v) in p.iter_mut().zip(&step[i * dim..(i + 1) * dim]) {
-                *x += v;
-            }
-            normalize(Dynamic(dim), p);
+    let control = spline.control_points_mut();
+    for i in 0..control.len() {
+        let p = control.get_mut(i);
+        for (x, v) in p.iter_mut().zip(&step[i * dim..(i + 1) * dim]) {
+            *x += v;
         }
-        let trial_pass = run_pass(&trial, points, params, PassMode::Preconditioned);
-        let tm = trial_pass.errors.metrics();
-        if tm.rms_error_rad < m.rms_error_rad {
-            *lambda = if *lambda < 1e-9 { 0.0 } else { *lambda / 10.0 };
-            return Some((trial, trial_pass, tm));
-        }
-        *lambda = if *lambda == 0.0 { 1e-3 } else { *lambda * 10.0 };
+        normalize(Dynamic(dim), p);
     }
-    None
 }

@@ -14,19 +14,17 @@
 //! normal equations in tangent coordinates, quadratic convergence to the geodesic
 //! least-squares optimum for the given knots.
 
-use super::gls_pia::{FitOptions, FitReport, IterationError};
-use super::metrics::ErrorMetrics;
-use super::pass::{run_pass, PassMode, PassResult};
+use super::damping::{Damping, Run, Trial};
+use super::gls_pia::{FitOptions, FitReport, Solver};
+use super::pass::{run_pass, PassMode};
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::geometry::point::{dot, exp_in_place, Dynamic, PointSet};
 
 /// Damping attempts per iteration before the solver declares it cannot improve further.
 const MAX_DAMPING_TRIES: usize = 10;
 
-/// Tikhonov ridge relative to the largest diagonal of AᵀA: keeps control points whose support
-/// holds no data (their rows of A are zero) from making the system singular, and is far below
-/// any entry that matters (diagonals are sums of squared coefficients of order 1).
-const RIDGE_RELATIVE: f64 = 1e-12;
+/// `λ` after a failed undamped step.
+const FIRST_LAMBDA: f64 = 1e-4;
 
 /// While cheap steps still gain more than this fraction of the RMS error per iteration the
 /// solver keeps using them; below it, it switches to exact-Jacobian steps (several times the
@@ -49,113 +47,61 @@ fn largest_control_arc(spline: &SphericalBSpline) -> f64 {
 }
 
 pub(crate) fn gauss_newton(
-    mut spline: SphericalBSpline,
+    spline: SphericalBSpline,
     points: &PointSet,
     params: Vec<f64>,
     options: &FitOptions,
 ) -> FitReport {
     let mut mode = PassMode::Normal;
-    let mut pass = run_pass(&spline, points, &params, mode);
-    let mut m = pass.errors.metrics();
-    let mut history = vec![record(&m)];
-    let mut iterations = 0;
-    let mut converged = false;
-    let mut lambda = 0.0;
-    while iterations < options.iterations && !options.cancel.is_cancelled() {
-        if m.max_error_rad == 0.0
-            || options
-                .target_max_error_rad
-                .is_some_and(|e| m.max_error_rad <= e)
-        {
-            converged = true;
-            break;
-        }
-        let step = damped_step(&spline, points, &params, &pass, &m, mode, &mut lambda);
-        let Some((trial, trial_pass, tm)) = step else {
+    let mut run = Run::start(spline, points, &params, mode);
+    let mut damping = Damping::new(FIRST_LAMBDA, MAX_DAMPING_TRIES);
+    while run.step_again(options) {
+        let Some(trial) = damped_step(&run, points, &params, mode, &mut damping) else {
             if mode == PassMode::Normal {
                 // The cheap Jacobian found no descent: continue with the exact one.
                 mode = PassMode::Exact;
-                lambda = 0.0;
-                pass = run_pass(&spline, points, &params, mode);
+                damping.lambda = 0.0;
+                run.pass = run_pass(&run.spline, points, &params, mode);
                 continue;
             }
-            converged = true; // no step lowers the loss: a (local) optimum to rounding
+            run.converged = true; // no step lowers the loss: a (local) optimum to rounding
             break;
         };
-        iterations += 1;
-        history.push(record(&tm));
-        let gain = m.rms_error_rad - tm.rms_error_rad;
-        let relative = gain / m.rms_error_rad;
-        spline = trial;
-        pass = trial_pass;
-        m = tm;
+        let relative = run.accept(trial);
         if mode == PassMode::Normal
             && relative < SWITCH_TO_EXACT_GAIN
-            && largest_control_arc(&spline) > EXACT_PHASE_MIN_ARC_RAD
+            && largest_control_arc(&run.spline) > EXACT_PHASE_MIN_ARC_RAD
         {
             mode = PassMode::Exact;
-            lambda = 0.0;
-            pass = run_pass(&spline, points, &params, mode);
+            damping.lambda = 0.0;
+            run.pass = run_pass(&run.spline, points, &params, mode);
         } else if relative <= options.stagnation {
-            converged = true;
+            run.converged = true;
             break;
         }
     }
-    FitReport {
-        spline,
-        parameters: params,
-        metrics: m,
-        iterations,
-        converged,
-        history,
-        solver: super::gls_pia::Solver::GaussNewton,
-    }
+    run.report(params, Solver::GaussNewton)
 }
 
-fn record(m: &ErrorMetrics) -> IterationError {
-    IterationError {
-        max_error_rad: m.max_error_rad,
-        mean_error_rad: m.mean_error_rad,
-    }
-}
-
-/// Solves the (damped) normal equations and returns the first trial curve that lowers the RMS
-/// error, with its pass (which already holds the next normal equations).
+/// Solves the (damped) normal equations of `mode` and returns the first trial of
+/// [`Damping::first_descent`] that lowers the RMS error.
 fn damped_step(
-    spline: &SphericalBSpline,
+    run: &Run,
     points: &PointSet,
     params: &[f64],
-    pass: &PassResult,
-    m: &ErrorMetrics,
     mode: PassMode,
-    lambda: &mut f64,
-) -> Option<(SphericalBSpline, PassResult, ErrorMetrics)> {
-    let band = pass.band.as_ref().expect("normal pass");
-    let ridge = RIDGE_RELATIVE * band.max_diagonal().max(f64::MIN_POSITIVE);
-    for _ in 0..MAX_DAMPING_TRIES {
-        let Some(chol) = band.cholesky(*lambda, ridge) else {
-            *lambda = (*lambda * 10.0).max(1e-6);
-            continue;
-        };
-        let mut step = pass.moves.clone();
-        // Normal: one column per coordinate; Exact: the unknowns are the tangent coordinates.
-        let cols = if mode == PassMode::Exact {
-            1
-        } else {
-            spline.dim()
-        };
-        chol.solve_in_place(&mut step, cols);
-        let mut trial = spline.clone();
-        move_along_geodesics(trial.control_points_mut(), &step, mode, &pass.bases);
-        let trial_pass = run_pass(&trial, points, params, mode);
-        let tm = trial_pass.errors.metrics();
-        if tm.rms_error_rad < m.rms_error_rad {
-            *lambda = if *lambda < 1e-9 { 0.0 } else { *lambda / 10.0 };
-            return Some((trial, trial_pass, tm));
-        }
-        *lambda = if *lambda == 0.0 { 1e-4 } else { *lambda * 10.0 };
-    }
-    None
+    damping: &mut Damping,
+) -> Option<Trial> {
+    // Normal: one column per coordinate; Exact: the unknowns are the tangent coordinates.
+    let cols = if mode == PassMode::Exact {
+        1
+    } else {
+        run.spline.dim()
+    };
+    let bases = &run.pass.bases;
+    damping.first_descent(run, points, params, mode, cols, |trial, step| {
+        move_along_geodesics(trial.control_points_mut(), step, mode, bases)
+    })
 }
 
 /// `P_i ← exp_{P_i}(v_i)`. In [`PassMode::Normal`] row i of `step` holds ambient coordinates

@@ -169,6 +169,12 @@ impl FitOptions {
             ..FitOptions::default()
         }
     }
+    /// Whether a fit whose largest error is `max_error_rad` meets
+    /// [`FitOptions::target_max_error_rad`].
+    pub(crate) fn target_met(&self, max_error_rad: f64) -> bool {
+        self.target_max_error_rad
+            .is_some_and(|e| max_error_rad <= e)
+    }
     /// Sets the number of control points.
     pub fn with_control_points(mut self, n: usize) -> Self {
         self.control_points = Some(n);
@@ -234,6 +240,16 @@ pub struct IterationError {
     pub max_error_rad: f64,
     /// Mean geodesic error, radians.
     pub mean_error_rad: f64,
+}
+
+impl IterationError {
+    /// The max and mean of `m`.
+    pub(crate) fn of(m: &ErrorMetrics) -> IterationError {
+        IterationError {
+            max_error_rad: m.max_error_rad,
+            mean_error_rad: m.mean_error_rad,
+        }
+    }
 }
 
 /// The result of a fit.
@@ -373,10 +389,7 @@ fn solve_corrected(
         if options.cancel.is_cancelled() {
             break;
         }
-        if options
-            .target_max_error_rad
-            .is_some_and(|e| r.metrics.max_error_rad <= e)
-        {
+        if options.target_met(r.metrics.max_error_rad) {
             break;
         }
         params.clone_from(&r.parameters);
@@ -447,10 +460,7 @@ fn gls_pia_loop(
         };
         let pass = run_pass(&spline, points, &params, mode);
         let m = pass.errors.metrics();
-        history.push(IterationError {
-            max_error_rad: m.max_error_rad,
-            mean_error_rad: m.mean_error_rad,
-        });
+        history.push(IterationError::of(&m));
         if best
             .as_ref()
             .is_none_or(|(_, _, b)| m.rms_error_rad < b.rms_error_rad)
@@ -458,9 +468,7 @@ fn gls_pia_loop(
             // Parameters are copied only when they can change.
             best = Some((spline.clone(), correct_every.map(|_| params.clone()), m));
         }
-        let target_met = options
-            .target_max_error_rad
-            .is_some_and(|e| m.max_error_rad <= e);
+        let target_met = options.target_met(m.max_error_rad);
         let stagnated =
             iterations > 0 && last_rms - m.rms_error_rad <= options.stagnation * last_rms;
         if target_met || stagnated || m.max_error_rad == 0.0 {

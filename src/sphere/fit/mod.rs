@@ -4,6 +4,7 @@
 
 mod accelerated;
 pub mod adaptive_knots;
+mod damping;
 pub mod footpoint;
 mod gauss_newton;
 pub mod gls_pia;

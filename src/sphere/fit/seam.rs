@@ -105,10 +105,7 @@ pub fn fit_closed(points: &PointSet, options: &FitOptions) -> Result<FitReport, 
     for _ in 0..SEAM_ITERATIONS {
         let before = current.clone();
         let m = gls_pia_iteration(&mut current, points, &params, options.step);
-        history.push(IterationError {
-            max_error_rad: m.max_error_rad,
-            mean_error_rad: m.mean_error_rad,
-        });
+        history.push(IterationError::of(&m));
         if best
             .as_ref()
             .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
