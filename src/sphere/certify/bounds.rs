@@ -47,6 +47,22 @@ pub(crate) struct NodeAlpha {
     pub slope: f64,
 }
 
+/// [`triangle_speed_bound`] of a Bézier curve on `control` (de Casteljau: alpha = t, slope 1)
+/// over `t in [a, b]`, `0 <= a <= b <= 1`.
+pub(crate) fn bezier_speed_bound(
+    dim: usize,
+    control: &[f64],
+    (a, b): (f64, f64),
+    scratch: &mut Vec<f64>,
+) -> f64 {
+    let alpha = |_, _| NodeAlpha {
+        at_start: a,
+        at_end: b,
+        slope: 1.0,
+    };
+    triangle_speed_bound(dim, control, alpha, b - a, scratch)
+}
+
 /// An upper bound of the speed |dC/dt| (radians per unit of t) over `t in [a, b]` of the apex of
 /// a SLERP triangle on the `p + 1` points `control` (flat, `dim` per point): level r, node j is
 /// `SLERP(node(r-1, j-1), node(r-1, j), alpha(r, j, t))`, as in de Boor's algorithm (B-splines)

@@ -250,10 +250,7 @@ pub fn max_deviation(points: &PointSet, kept: &[usize]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn on_equator(lon: f64, lat: f64) -> [f64; 3] {
-        [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
-    }
+    use crate::sphere::geometry::arc::tests::on_equator;
 
     #[test]
     fn simplification_meets_the_tolerance_and_keeps_corners() {

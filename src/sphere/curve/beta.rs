@@ -22,6 +22,7 @@
 //! C2 cubic interpolating spline with uniform parameters.
 //! Hot loops are generic over `Dim`, so S^2 runs on `Fixed<3>`.
 
+use crate::sphere::certify::bounds::bezier_speed_bound;
 use crate::sphere::curve::bezier::{de_casteljau, SphericalBezier};
 use crate::sphere::curve::SphericalCurve;
 use crate::sphere::geometry::point::{normalize, Arc, Dim, PointSet};
@@ -299,17 +300,7 @@ impl SphericalCurve for SphericalBetaSpline {
                 (t1 - seg as f64).clamp(0.0, 1.0),
             );
             let ctrl = &flat[3 * seg * dim..(3 * seg + 4) * dim];
-            let s = crate::sphere::certify::bounds::triangle_speed_bound(
-                dim,
-                ctrl,
-                |_, _| crate::sphere::certify::bounds::NodeAlpha {
-                    at_start: a,
-                    at_end: b,
-                    slope: 1.0,
-                },
-                b - a,
-                &mut scratch,
-            );
+            let s = bezier_speed_bound(dim, ctrl, (a, b), &mut scratch);
             best = best.max(s);
             seg += 1;
             if seg >= n || seg as f64 >= t1 {

@@ -10,6 +10,7 @@
 //! `Fixed<3>` while S^14 uses the same code with a runtime length.
 
 use super::SphericalCurve;
+use crate::sphere::certify::bounds::bezier_speed_bound;
 use crate::sphere::geometry::point::{log_into, normalize, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use rayon::prelude::*;
@@ -154,17 +155,7 @@ impl SphericalCurve for SphericalBezier {
     fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
         let (a, b) = (clamp_unit(t0.min(t1)), clamp_unit(t0.max(t1)));
         let mut scratch = Vec::new();
-        crate::sphere::certify::bounds::triangle_speed_bound(
-            self.dim(),
-            self.control.as_flat(),
-            |_, _| crate::sphere::certify::bounds::NodeAlpha {
-                at_start: a,
-                at_end: b,
-                slope: 1.0,
-            },
-            b - a,
-            &mut scratch,
-        )
+        bezier_speed_bound(self.dim(), self.control.as_flat(), (a, b), &mut scratch)
     }
     fn breaks(&self) -> Vec<f64> {
         Vec::new()

@@ -287,7 +287,7 @@ fn error_arc<D: Dim>(d: D, q: &[f64], c: &[f64]) -> (f64, f64) {
 /// The error angle θ between `q` and `c`, and the factor `θ / sin θ` that turns the tangent
 /// component `q − (q·c) c` (length sin θ) into the log map of `q` at `c` (length θ).
 #[inline(always)]
-fn log_residual<D: Dim>(d: D, q: &[f64], c: &[f64]) -> (f64, f64) {
+pub(crate) fn log_residual<D: Dim>(d: D, q: &[f64], c: &[f64]) -> (f64, f64) {
     let (m2, p2) = diff_sum_sq(d, q, c);
     let (theta, _) = angle_from_chords(m2, p2);
     let scale = if theta <= SERIES_ANGLE_MAX_RAD {

@@ -251,11 +251,12 @@ pub(crate) fn chord_key(c2: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use approx::assert_relative_eq;
 
-    fn on_equator(lon: f64, lat: f64) -> [f64; 3] {
+    /// The unit vector at longitude `lon` and latitude `lat` (radians).
+    pub(crate) fn on_equator(lon: f64, lat: f64) -> [f64; 3] {
         [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
     }
 

@@ -117,29 +117,28 @@ impl BandCholesky {
         let (n, bw) = (self.n, self.bw);
         let w = bw + 1;
         debug_assert_eq!(b.len(), n * cols);
-        for i in 0..n {
-            for k in i.saturating_sub(bw)..i {
-                let f = self.l[i * w + (i - k)];
-                for c in 0..cols {
-                    b[i * cols + c] -= f * b[k * cols + c];
-                }
+        // Row i of `b` minus f times row k, then divided by the diagonal.
+        let sub_row = |b: &mut [f64], i: usize, k: usize, f: f64| {
+            for c in 0..cols {
+                b[i * cols + c] -= f * b[k * cols + c];
             }
-            let d = self.l[i * w];
+        };
+        let div_row = |b: &mut [f64], i: usize, d: f64| {
             for c in 0..cols {
                 b[i * cols + c] /= d;
             }
+        };
+        for i in 0..n {
+            for k in i.saturating_sub(bw)..i {
+                sub_row(b, i, k, self.l[i * w + (i - k)]);
+            }
+            div_row(b, i, self.l[i * w]);
         }
         for i in (0..n).rev() {
             for k in i + 1..(i + bw + 1).min(n) {
-                let f = self.l[k * w + (k - i)];
-                for c in 0..cols {
-                    b[i * cols + c] -= f * b[k * cols + c];
-                }
+                sub_row(b, i, k, self.l[k * w + (k - i)]);
             }
-            let d = self.l[i * w];
-            for c in 0..cols {
-                b[i * cols + c] /= d;
-            }
+            div_row(b, i, self.l[i * w]);
         }
     }
 }

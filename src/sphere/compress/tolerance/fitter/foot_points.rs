@@ -1,6 +1,6 @@
 //! Foot-point correction: each point's parameter moved towards the curve point nearest it.
 
-use super::{eval_curve, Fitter};
+use super::Fitter;
 use crate::sphere::curve::bspline::Degree;
 use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle_from_sine, dot, Dim};
@@ -27,15 +27,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                 if e == 0.0 {
                     break;
                 }
-                let k = eval_curve::<D, G, false>(
-                    self.d,
-                    self.g,
-                    &self.knots,
-                    &self.ctrl,
-                    t,
-                    &mut self.eval,
-                    &mut self.c,
-                );
+                let k = self.eval(t);
                 let width = (self.knots[k + 1] - self.knots[k]).max(1e-12);
                 let h = 1e-4 * width;
                 // Forward difference inside the span (backward at its end): C' is smooth there.
@@ -44,15 +36,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                 } else {
                     (t - h, t)
                 };
-                eval_curve::<D, G, false>(
-                    self.d,
-                    self.g,
-                    &self.knots,
-                    &self.ctrl,
-                    tb,
-                    &mut self.eval,
-                    &mut self.c2,
-                );
+                self.eval_into::<false>(tb, true);
                 let mut dc = [0.0; 16];
                 let mut heap = Vec::new();
                 let dc: &mut [f64] = if dim <= 16 {
@@ -68,15 +52,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                         dc[x] = (dc[x] - self.c[x]) * inv;
                     }
                 } else {
-                    eval_curve::<D, G, false>(
-                        self.d,
-                        self.g,
-                        &self.knots,
-                        &self.ctrl,
-                        ta,
-                        &mut self.eval,
-                        &mut self.c2,
-                    );
+                    self.eval_into::<false>(ta, true);
                     for x in 0..dim {
                         dc[x] = (dc[x] - self.c2[x]) * inv;
                     }

@@ -50,9 +50,9 @@ pub(super) struct Fitter<'a, D: Dim, G: Degree> {
     undo: Undo,
 }
 
-/// What consecutive evaluations of the working curve share ([`eval_curve`]): the de Boor
+/// What consecutive evaluations of the working curve share: the de Boor
 /// scratch (with the contribution coefficients of the last evaluation) and the span of the last
-/// evaluation.
+/// evaluation ([`Fitter::eval_into`]).
 struct Evaluator {
     scratch: Scratch,
     span_hint: usize,
@@ -86,28 +86,27 @@ struct RefitBuffers {
     saved: Vec<f64>,
 }
 
-/// C(t) into `out`; with `CONTRIB` the contribution coefficients are in
-/// `eval.scratch.contrib`. Returns the span, and keeps it in `eval.span_hint`: the fitter's
-/// passes go through the points in order, so the next span is this one or the next and no
-/// binary search over the knots is needed.
-#[inline(always)]
-fn eval_curve<D: Dim, G: Degree, const CONTRIB: bool>(
-    d: D,
-    g: G,
-    knots: &[f64],
-    ctrl: &PointSet,
-    t: f64,
-    eval: &mut Evaluator,
-    out: &mut [f64],
-) -> usize {
-    let frame = Frame::new(g.get(), knots, ctrl);
-    let k = frame.span_from(eval.span_hint.clamp(frame.p, frame.last_span), t);
-    eval.span_hint = k;
-    frame.eval::<D, G, CONTRIB, false>(d, g, k, t, &mut eval.scratch, out);
-    k
-}
-
 impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
+    /// C(t) into `self.c` (`self.c2` with `second`); with `CONTRIB` the contribution
+    /// coefficients are in `self.eval.scratch.contrib`. Returns the span, and keeps it in
+    /// `self.eval.span_hint`: the fitter's passes go through the points in order, so the next
+    /// span is this one or the next and no binary search over the knots is needed.
+    #[inline(always)]
+    fn eval_into<const CONTRIB: bool>(&mut self, t: f64, second: bool) -> usize {
+        let frame = Frame::new(self.g.get(), &self.knots, &self.ctrl);
+        let k = frame.span_from(self.eval.span_hint.clamp(frame.p, frame.last_span), t);
+        self.eval.span_hint = k;
+        let out = if second { &mut self.c2 } else { &mut self.c };
+        frame.eval::<D, G, CONTRIB, false>(self.d, self.g, k, t, &mut self.eval.scratch, out);
+        k
+    }
+
+    /// C(t) into `self.c`; the span.
+    #[inline(always)]
+    fn eval(&mut self, t: f64) -> usize {
+        self.eval_into::<false>(t, false)
+    }
+
     /// The working curve `knots`, `ctrl` for `points` at data parameters `params` (moving to
     /// foot points when `free`), every point's error measured.
     fn new(
@@ -293,15 +292,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     }
 
     fn error_at(&mut self, j: usize, t: f64) -> f64 {
-        eval_curve::<D, G, false>(
-            self.d,
-            self.g,
-            &self.knots,
-            &self.ctrl,
-            t,
-            &mut self.eval,
-            &mut self.c,
-        );
+        self.eval(t);
         angle(self.d, self.points.get(j), &self.c)
     }
 

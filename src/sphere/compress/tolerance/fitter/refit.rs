@@ -1,10 +1,9 @@
 //! Gauss–Newton refits (Levenberg–Marquardt damped) of a window of control points.
 
-use super::{eval_curve, Fitter, RefitBuffers};
+use super::{Fitter, RefitBuffers};
 use crate::sphere::curve::bspline::Degree;
-use crate::sphere::geometry::point::{
-    angle_from_chords, diff_sum_sq, dot, exp_in_place, Dim, SERIES_ANGLE_MAX_RAD,
-};
+use crate::sphere::fit::pass::log_residual;
+use crate::sphere::geometry::point::{dot, exp_in_place, Dim};
 
 /// Foot-point Newton steps per point and refit.
 const FOOT_POINT_STEPS: usize = 1;
@@ -84,28 +83,9 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             rhs.resize(nf * dim, 0.0);
             for j in j0..j1 {
                 let t = self.params[j];
-                let k = eval_curve::<D, G, true>(
-                    d,
-                    self.g,
-                    &self.knots,
-                    &self.ctrl,
-                    t,
-                    &mut self.eval,
-                    &mut self.c,
-                );
+                let k = self.eval_into::<true>(t, false);
                 let q = self.points.get(j);
-                let (m2, p2) = diff_sum_sq(d, q, &self.c);
-                let (theta, _) = angle_from_chords(m2, p2);
-                let scale = if theta <= SERIES_ANGLE_MAX_RAD {
-                    1.0 / crate::sphere::geometry::point::sinc_series(theta)
-                } else {
-                    let s = 0.5 * m2.sqrt() * p2.sqrt();
-                    if s > 0.0 {
-                        theta / s
-                    } else {
-                        0.0
-                    }
-                };
+                let (_, scale) = log_residual(d, q, &self.c);
                 let cos = dot(d, q, &self.c);
                 let wj = self.weight[j];
                 let coef = &self.eval.scratch.contrib;
