@@ -193,6 +193,23 @@ pub enum SphereError {
     },
 }
 
+/// Why `values` (knots, parameters) cannot be used, if so: a value that is not finite, or one
+/// smaller than the one before it (naming both). `name` is what one value is called ("knot").
+pub(crate) fn finite_non_decreasing(values: &[f64], name: &str) -> Result<(), String> {
+    if let Some(i) = values.iter().position(|u| !u.is_finite()) {
+        return Err(format!("{name} {i} is not a finite number"));
+    }
+    if let Some(i) = (1..values.len()).find(|&i| values[i] < values[i - 1]) {
+        return Err(format!(
+            "{name} {i} ({}) is smaller than {name} {} ({}): {name}s must not decrease",
+            values[i],
+            i - 1,
+            values[i - 1]
+        ));
+    }
+    Ok(())
+}
+
 /// The input a [`SphereError`] is about ([`SphereError::site`]). Each front end words it its
 /// own way: the documents as a JSON pointer (`document::pointer`), the service as a
 /// pointer or a query parameter, the command line as a pointer or a flag.

@@ -96,12 +96,7 @@ impl SphericalBSpline {
         knots: Vec<f64>,
         control: PointSet,
     ) -> Result<SphericalBSpline, SphereError> {
-        if degree == 0 || degree > MAX_DEGREE {
-            return Err(SphereError::InvalidDegree {
-                got: degree,
-                max: MAX_DEGREE,
-            });
-        }
+        check_degree(degree)?;
         let n = control.len();
         if n < degree + 1 {
             return Err(SphereError::InvalidControlPointCount {
@@ -159,34 +154,31 @@ impl SphericalBSpline {
     /// The point C(t) (a unit vector); `t` is clamped to [`domain`](Self::domain).
     pub fn evaluate(&self, t: f64) -> Vec<f64> {
         let mut out = vec![0.0; self.dim()];
+        self.eval_once::<false>(t, &mut out);
+        out
+    }
+
+    /// C(t) into `out` by a frame and scratch of its own; returns the span and the scratch
+    /// (with `CONTRIB`, holding the contribution coefficients).
+    fn eval_once<const CONTRIB: bool>(&self, t: f64, out: &mut [f64]) -> (usize, Scratch) {
         let frame = Frame::new(self.degree, &self.knots, &self.control);
         let mut scratch = Scratch::new(self.degree, self.dim());
         let k = frame.span(t);
-        with_degree!(self.degree, |g| frame.eval::<_, _, false, false>(
+        with_degree!(self.degree, |g| frame.eval::<_, _, CONTRIB, false>(
             Dynamic(self.dim()),
             g,
             k,
             t,
             &mut scratch,
-            &mut out
+            out
         ));
-        out
+        (k, scratch)
     }
 
     /// C(t) and the contribution coefficients D_i(t) of the control points that influence it.
     pub fn contributions(&self, t: f64) -> Contributions {
         let mut point = vec![0.0; self.dim()];
-        let frame = Frame::new(self.degree, &self.knots, &self.control);
-        let mut scratch = Scratch::new(self.degree, self.dim());
-        let k = frame.span(t);
-        with_degree!(self.degree, |g| frame.eval::<_, _, true, false>(
-            Dynamic(self.dim()),
-            g,
-            k,
-            t,
-            &mut scratch,
-            &mut point
-        ));
+        let (k, scratch) = self.eval_once::<true>(t, &mut point);
         Contributions {
             first: k - self.degree,
             coefficients: scratch.contrib[..=self.degree].to_vec(),
@@ -329,6 +321,20 @@ pub struct Contributions {
     pub point: Vec<f64>,
 }
 
+/// A degree the library evaluates: 1 ..= [`MAX_DEGREE`].
+///
+/// # Errors
+/// [`SphereError::InvalidDegree`] otherwise.
+pub(crate) fn check_degree(degree: usize) -> Result<(), SphereError> {
+    if degree == 0 || degree > MAX_DEGREE {
+        return Err(SphereError::InvalidDegree {
+            got: degree,
+            max: MAX_DEGREE,
+        });
+    }
+    Ok(())
+}
+
 fn validate_knots(p: usize, n: usize, knots: &[f64]) -> Result<(), SphereError> {
     let bad = |reason: String| Err(SphereError::InvalidKnots { reason });
     if knots.len() != n + p + 1 {
@@ -338,16 +344,8 @@ fn validate_knots(p: usize, n: usize, knots: &[f64]) -> Result<(), SphereError> 
             knots.len()
         ));
     }
-    if let Some(i) = knots.iter().position(|u| !u.is_finite()) {
-        return bad(format!("knot {i} is not a finite number"));
-    }
-    if let Some(i) = (1..knots.len()).find(|&i| knots[i] < knots[i - 1]) {
-        return bad(format!(
-            "knot {i} ({}) is smaller than knot {} ({}): knots must not decrease",
-            knots[i],
-            i - 1,
-            knots[i - 1]
-        ));
+    if let Err(reason) = crate::sphere::finite_non_decreasing(knots, "knot") {
+        return bad(reason);
     }
     if let Some(i) = (1..=p).find(|&i| knots[i] != knots[0]) {
         return bad(format!(

@@ -12,7 +12,7 @@ use super::knots::{
 };
 use super::metrics::ErrorMetrics;
 use super::pass::{run_pass, PassMode};
-use crate::sphere::curve::bspline::{SphericalBSpline, MAX_DEGREE};
+use crate::sphere::curve::bspline::{check_degree, SphericalBSpline};
 use crate::sphere::geometry::point::{normalize, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};
@@ -299,12 +299,7 @@ pub fn fit(
     options: &FitOptions,
 ) -> Result<FitReport, SphereError> {
     let p = options.degree;
-    if p == 0 || p > MAX_DEGREE {
-        return Err(SphereError::InvalidDegree {
-            got: p,
-            max: MAX_DEGREE,
-        });
-    }
+    check_degree(p)?;
     let n = points.len();
     if n < p + 1 {
         return Err(SphereError::TooFewPoints {

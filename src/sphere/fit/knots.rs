@@ -129,16 +129,8 @@ pub fn normalize_parameters(given: &[f64], count: usize) -> Result<Vec<f64>, Sph
             given.len()
         ));
     }
-    if let Some(i) = given.iter().position(|x| !x.is_finite()) {
-        return bad(format!("parameter {i} is not a finite number"));
-    }
-    if let Some(i) = (1..given.len()).find(|&i| given[i] < given[i - 1]) {
-        return bad(format!(
-            "parameter {i} ({}) is smaller than parameter {} ({}): parameters must not decrease",
-            given[i],
-            i - 1,
-            given[i - 1]
-        ));
+    if let Err(reason) = crate::sphere::finite_non_decreasing(given, "parameter") {
+        return bad(reason);
     }
     let (a, b) = (given[0], given[given.len() - 1]);
     if b <= a {
