@@ -47,7 +47,7 @@ struct Line {
 struct DataSet {
     name: String,
     lines: Vec<Line>,
-    /// One of the four sets the fitter's ablation (module docs of `tolerance.rs`) measures.
+    /// One of the four sets the fitter's ablation (`docs/tolerance-fitting.md`) measures.
     in_ablation: bool,
 }
 
