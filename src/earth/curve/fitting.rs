@@ -55,19 +55,16 @@ pub const DENSIFY_MAX_FACTOR: usize = 4;
 /// Invalid positions or times, an open or short ring, fewer than 2 distinct positions,
 /// antipodal neighbours, more control points than distinct positions, or output over the
 /// limits.
-#[allow(clippy::too_many_arguments)]
 pub fn fit_line(
-    coords: &Value,
-    pointer: &str,
-    path: Vec<usize>,
-    closed: bool,
+    src: LineRef<'_>,
     options: &FitOptions,
-    output: &OutputOptions,
-    limits: &Limits,
     time: Option<&LineTimeInput<'_>>,
+    out: OutputSpec<'_>,
 ) -> Result<CurveOutput, EarthError> {
-    let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
-    let closed = fits_closed(closed, &distinct, timed.as_ref());
+    let (output, limits, pointer) = (out.output, out.limits, src.pointer);
+    let (line, distinct, timed) = prepare_line(src.value, pointer, src.closed, time)?;
+    let closed = fits_closed(src.closed, &distinct, timed.as_ref());
+    let src = LineRef { closed, ..src };
     let given = timed.as_ref().map(|t| t.params.as_slice());
     let m = distinct.len();
     let degree = options.degree.min(m - 1);
@@ -252,11 +249,8 @@ pub fn fit_line(
             sampling_aim_rad: None,
             time: timed.as_ref(),
         },
-        pointer,
-        path,
-        closed,
-        output,
-        limits,
+        src,
+        out,
     )?;
     let f = &mut out.report.fields;
     f.insert(
@@ -298,12 +292,10 @@ pub(super) struct Fitted<'a> {
 /// Also returns the max error in radians.
 pub(super) fn finish_fit(
     f: Fitted<'_>,
-    pointer: &str,
-    path: Vec<usize>,
-    closed: bool,
-    output: &OutputOptions,
-    limits: &Limits,
+    src: LineRef<'_>,
+    out: OutputSpec<'_>,
 ) -> Result<(CurveOutput, f64), EarthError> {
+    let (pointer, closed) = (src.pointer, src.closed);
     let Fitted {
         line,
         distinct,
@@ -321,20 +313,19 @@ pub(super) fn finish_fit(
     let control_points = spline.control_points().len();
     // Errors of the spline as returned, each distinct position counted once per input copy.
     let errs = pointwise_errors(&spline, points, &params);
-    let (mut max_rad, mut sum_rad, mut sq_rad) = (0.0f64, 0.0, 0.0);
-    for (e, &k) in errs.iter().zip(&distinct.multiplicity) {
-        max_rad = max_rad.max(*e);
-        sum_rad += e * k as f64;
-        sq_rad += e * e * k as f64;
-    }
+    let errors = ErrorSums::of(errs.into_iter().zip(distinct.multiplicity.iter().copied()));
+    let ErrorSums {
+        max_rad,
+        sum_rad,
+        sq_rad,
+    } = errors;
     let n_in = line.points.len();
     let dense = sample_curve(
         &spline,
-        output,
+        out,
         closed,
         sampling_aim_rad.unwrap_or_else(|| auto_tolerance_rad(max_rad)),
         sampling_start(control_points),
-        limits,
         time.map(|t| &t.map),
     )
     .map_err(|e| EarthError::new(pointer, e.problem))?;
@@ -387,16 +378,10 @@ pub(super) fn finish_fit(
             pointer: pointer.to_string(),
             has_alt: line.alts.is_some(),
             report: CurveReport {
-                path,
-                closed,
-                fields,
                 spline: Some(spline_doc),
-                input_points: n_in,
                 output_points: points_out.len(),
                 stored_numbers: bspline_stored_numbers(&spline),
-                max_error_m: rad_to_m(max_rad),
-                error_sum_m: rad_to_m(sum_rad),
-                error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
+                ..CurveReport::of_line(src, fields, n_in, errors)
             },
             points: points_out,
             alts,
@@ -433,20 +418,17 @@ pub fn rounding_bound_rad(precision: u32) -> f64 {
 ///
 /// # Errors
 /// As [`fit_line`].
-#[allow(clippy::too_many_arguments)]
 pub fn fit_line_to_tolerance(
-    coords: &Value,
-    pointer: &str,
-    path: Vec<usize>,
-    closed: bool,
+    src: LineRef<'_>,
     options: &FitOptions,
     tolerance_m: f64,
-    output: &OutputOptions,
-    limits: &Limits,
     time: Option<&LineTimeInput<'_>>,
+    out: OutputSpec<'_>,
 ) -> Result<CurveOutput, EarthError> {
-    let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
-    let closed = fits_closed(closed, &distinct, timed.as_ref());
+    let (output, pointer) = (out.output, src.pointer);
+    let (line, distinct, timed) = prepare_line(src.value, pointer, src.closed, time)?;
+    let closed = fits_closed(src.closed, &distinct, timed.as_ref());
+    let src = LineRef { closed, ..src };
     let given = timed.as_ref().map(|t| t.params.as_slice());
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
@@ -521,11 +503,8 @@ pub fn fit_line_to_tolerance(
                 sampling_aim_rad: Some(dense_margin),
                 time: timed.as_ref(),
             },
-            pointer,
-            path.clone(),
-            closed,
-            output,
-            limits,
+            src,
+            out,
         )?;
         let worst = max_rad.max(tw.upper_rad);
         let met = worst <= tol_rad

@@ -34,6 +34,7 @@ use serde_json::{json, Map, Value};
 
 mod fitting;
 mod interpolation;
+mod line;
 mod output;
 mod positions;
 mod stored;
@@ -41,6 +42,7 @@ mod times;
 
 pub use fitting::*;
 pub use interpolation::*;
+pub use line::*;
 pub use output::*;
 pub use positions::*;
 pub use stored::*;
@@ -67,16 +69,17 @@ mod tests {
         closed: bool,
         options: &FitOptions,
     ) -> Result<CurveOutput, EarthError> {
-        fit_line(
-            coords,
+        let src = LineRef {
+            value: coords,
             pointer,
-            path,
+            path: &path,
             closed,
-            options,
-            &OutputOptions::default(),
-            &Limits::default(),
-            None,
-        )
+        };
+        let out = OutputSpec {
+            output: &OutputOptions::default(),
+            limits: &Limits::default(),
+        };
+        fit_line(src, options, None, out)
     }
 
     #[test]

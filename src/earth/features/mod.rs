@@ -18,7 +18,7 @@ use super::curve::{
     compression_ratio, evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line,
     json_kind, output_position, output_positions,
 };
-use super::curve::{curve_in_time, CurveOutput, CurveReport, LineTimeInput};
+use super::curve::{curve_in_time, CurveOutput, CurveReport, LineRef, LineTimeInput, OutputSpec};
 use super::lonlat::lonlat_to_unit;
 use super::small_rings;
 use super::time::{motion, TimeOrigin, TIME_PROPERTIES};
@@ -314,6 +314,18 @@ struct CurveJob<'a> {
     times: Option<LineTimeInput<'a>>,
     /// For evaluation: the stored `time` beside the spline, and its pointer.
     time_doc: Option<(&'a Value, String)>,
+}
+
+impl CurveJob<'_> {
+    /// The line (or stored curve) and where it sits.
+    fn line(&self) -> LineRef<'_> {
+        LineRef {
+            value: self.value,
+            pointer: &self.pointer,
+            path: &self.path,
+            closed: self.closed,
+        }
+    }
 }
 
 /// Output geometry, `properties.fit` (or ...), counters, and properties to set (the times of

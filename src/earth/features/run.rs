@@ -69,49 +69,27 @@ pub(super) fn check_stored_size(
 
 /// One curve of [`run_curves`].
 pub(super) fn one_curve(c: &CurveJob<'_>, job: &Job) -> Result<CurveOutput, EarthError> {
+    let out = output_spec(job);
     match &job.operation {
-        Operation::Fit(o) => fit_line(
-            c.value,
-            &c.pointer,
-            c.path.clone(),
-            c.closed,
-            o,
-            &job.output,
-            &job.limits,
-            c.times.as_ref(),
-        ),
+        Operation::Fit(o) => fit_line(c.line(), o, c.times.as_ref(), out),
         Operation::FitToTolerance {
             options,
             tolerance_m,
-        } => fit_line_to_tolerance(
-            c.value,
-            &c.pointer,
-            c.path.clone(),
-            c.closed,
-            options,
-            *tolerance_m,
-            &job.output,
-            &job.limits,
-            c.times.as_ref(),
-        ),
-        Operation::Interpolate(s) => interpolate_line(
-            c.value,
-            &c.pointer,
-            c.path.clone(),
-            c.closed,
-            s,
-            &job.output,
-            &job.limits,
-        ),
+        } => fit_line_to_tolerance(c.line(), options, *tolerance_m, c.times.as_ref(), out),
+        Operation::Interpolate(s) => interpolate_line(c.line(), s, out),
         Operation::Evaluate => evaluate_curve(
-            c.value,
-            &c.pointer,
-            c.path.clone(),
-            c.closed,
+            c.line(),
             c.known_error_m,
-            &job.output,
-            &job.limits,
             c.time_doc.as_ref().map(|(v, p)| (*v, p.as_str())),
+            out,
         ),
+    }
+}
+
+/// The output options and limits of `job`.
+pub(super) fn output_spec(job: &Job) -> OutputSpec<'_> {
+    OutputSpec {
+        output: &job.output,
+        limits: &job.limits,
     }
 }

@@ -72,18 +72,8 @@ pub(super) fn tighten_crossing_rings(
                 let _scope = job.cancel.enter();
                 let c = &jobs[i];
                 let t = 0.5 * tolerance[i];
-                fit_line_to_tolerance(
-                    c.value,
-                    &c.pointer,
-                    c.path.clone(),
-                    c.closed,
-                    options,
-                    t,
-                    &job.output,
-                    &job.limits,
-                    c.times.as_ref(),
-                )
-                .map(|out| (i, out))
+                fit_line_to_tolerance(c.line(), options, t, c.times.as_ref(), output_spec(job))
+                    .map(|out| (i, out))
             })
             .collect::<Result<_, _>>()?;
         for (i, out) in refits {
