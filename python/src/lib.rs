@@ -243,11 +243,20 @@ where
     if let Some(e) = interrupt {
         return Err(e);
     }
-    let mut geoms = Vec::with_capacity(results.len());
-    let mut infos = Vec::with_capacity(results.len());
-    let mut scalars = Vec::with_capacity(results.len());
-    for r in results {
-        match r.map_err(|f| f.into_py(py))? {
+    let outcomes = results
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|f| f.into_py(py))?;
+    columns(py, outcomes)
+}
+
+/// The columns Python gets back for these outcomes.
+fn columns(py: Python<'_>, outcomes: Vec<Outcome>) -> PyResult<Columns> {
+    let mut geoms = Vec::with_capacity(outcomes.len());
+    let mut infos = Vec::with_capacity(outcomes.len());
+    let mut scalars = Vec::with_capacity(outcomes.len());
+    for o in outcomes {
+        match o {
             None => {
                 geoms.push(None);
                 infos.push(None);
@@ -472,23 +481,7 @@ fn coverage(py: Python<'_>, rows: Vec<Option<Row>>, job: &Job) -> PyResult<FitCo
         Ok((outcomes, collection["topology"].to_string()))
     };
     let (outcomes, topology) = py.detach(run).map_err(|f| f.into_py(py))?;
-    let mut geoms = Vec::with_capacity(outcomes.len());
-    let mut infos = Vec::with_capacity(outcomes.len());
-    let mut scalars = Vec::with_capacity(outcomes.len());
-    for o in outcomes {
-        match o {
-            None => {
-                geoms.push(None);
-                infos.push(None);
-                scalars.push(None);
-            }
-            Some((wkb, info)) => {
-                geoms.push(Some(PyBytes::new(py, &wkb).unbind()));
-                infos.push(Some(info.to_string()));
-                scalars.push(Some(scalar_fields(py, &info)?.unbind()));
-            }
-        }
-    }
+    let (geoms, infos, scalars) = columns(py, outcomes)?;
     Ok((geoms, infos, scalars, Some(topology)))
 }
 
