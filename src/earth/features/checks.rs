@@ -4,7 +4,7 @@
 use super::*;
 
 /// Checks a `bbox` member, if any: an array of 2n numbers, n >= 2 (RFC 7946 §5).
-pub(super) fn check_bbox(map: &Map<String, Value>, ptr: &str) -> Result<(), EarthError> {
+pub(in crate::earth) fn check_bbox(map: &Map<String, Value>, ptr: &str) -> Result<(), EarthError> {
     let Some(b) = map.get("bbox") else {
         return Ok(());
     };

@@ -3,7 +3,7 @@
 
 use super::*;
 
-pub(super) fn array_at<'a>(
+pub(in crate::earth) fn array_at<'a>(
     v: &'a Value,
     pointer: &str,
     what: &str,

@@ -40,9 +40,10 @@ mod tighten;
 mod times;
 
 use assemble::*;
+pub(super) use checks::check_bbox;
 use checks::*;
-pub(super) use curves::no_area_on_the_sphere;
 use curves::*;
+pub(super) use curves::{array_at, no_area_on_the_sphere};
 pub use document::Document;
 use document::*;
 pub use evaluate::evaluate_spline_document;
@@ -56,7 +57,7 @@ const CURVE_TYPES: [&str; 4] = ["LineString", "MultiLineString", "Polygon", "Mul
 /// Geometry types that pass through unchanged.
 const OTHER_TYPES: [&str; 3] = ["Point", "MultiPoint", "GeometryCollection"];
 
-fn invalid(pointer: impl Into<String>, msg: impl Into<String>) -> EarthError {
+pub(in crate::earth) fn invalid(pointer: impl Into<String>, msg: impl Into<String>) -> EarthError {
     EarthError::new(pointer, Problem::InvalidGeoJson(msg.into()))
 }
 

@@ -162,10 +162,10 @@ impl Operation {
 }
 
 impl Job {
-    /// A fit with default output options and limits.
-    pub fn fit(options: FitOptions) -> Job {
+    /// `operation` with default output options, limits, time options and topology.
+    pub fn new(operation: Operation) -> Job {
         Job {
-            operation: Operation::Fit(options),
+            operation,
             output: OutputOptions::default(),
             limits: Limits::default(),
             cancel: Cancel::inherit(),
@@ -174,34 +174,21 @@ impl Job {
             format: OutputFormat::GeoJson,
             drop_small_rings: false,
         }
+    }
+
+    /// A fit with default output options and limits.
+    pub fn fit(options: FitOptions) -> Job {
+        Job::new(Operation::Fit(options))
     }
 
     /// An evaluation with default output options and limits.
     pub fn evaluate() -> Job {
-        Job {
-            operation: Operation::Evaluate,
-            output: OutputOptions::default(),
-            limits: Limits::default(),
-            cancel: Cancel::inherit(),
-            time: TimeOptions::default(),
-            topology: Topology::PerFeature,
-            format: OutputFormat::GeoJson,
-            drop_small_rings: false,
-        }
+        Job::new(Operation::Evaluate)
     }
 
     /// An interpolation with default output options and limits.
     pub fn interpolate(settings: InterpolateSettings) -> Job {
-        Job {
-            operation: Operation::Interpolate(settings),
-            output: OutputOptions::default(),
-            limits: Limits::default(),
-            cancel: Cancel::inherit(),
-            time: TimeOptions::default(),
-            topology: Topology::PerFeature,
-            format: OutputFormat::GeoJson,
-            drop_small_rings: false,
-        }
+        Job::new(Operation::Interpolate(settings))
     }
 
     /// Sets the sampling.

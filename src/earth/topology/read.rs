@@ -3,6 +3,7 @@
 //! came cut at ±180) are read in order, each with where it came from.
 
 use super::*;
+use crate::earth::features::{array_at, check_bbox, invalid};
 
 /// A polygon ring of the input and where it came from.
 pub(super) struct RingSource {
@@ -69,7 +70,9 @@ pub(super) fn read_coverage(doc: &Document, job: &Job) -> Result<CoverageInput, 
         bare["geometry"] = Value::Null;
         process_feature(&bare, &slot.pointer, job)?;
         let geometry = &feature["geometry"];
-        check_geometry_bbox(geometry, geometry_pointer)?;
+        if let Some(g) = geometry.as_object() {
+            check_bbox(g, geometry_pointer)?;
+        }
         let cptr = format!("{geometry_pointer}/coordinates");
         let coords = geometry
             .get("coordinates")
@@ -77,7 +80,7 @@ pub(super) fn read_coverage(doc: &Document, job: &Job) -> Result<CoverageInput, 
         let polygons: Vec<(String, &Value)> = if kind == "Polygon" {
             vec![(cptr.clone(), coords)]
         } else {
-            array_of(coords, &cptr, "polygons")?
+            array_at(coords, &cptr, "polygons")?
                 .iter()
                 .enumerate()
                 .map(|(i, p)| (format!("{cptr}/{i}"), p))
@@ -104,7 +107,7 @@ pub(super) fn read_coverage(doc: &Document, job: &Job) -> Result<CoverageInput, 
             None => {
                 for (pptr, poly) in &polygons {
                     ring_sets.push(
-                        array_of(poly, pptr, "rings")?
+                        array_at(poly, pptr, "rings")?
                             .iter()
                             .enumerate()
                             .map(|(ri, ring)| (format!("{pptr}/{ri}"), ring))
@@ -158,26 +161,6 @@ pub(super) fn read_coverage(doc: &Document, job: &Job) -> Result<CoverageInput, 
     })
 }
 
-pub(super) fn invalid(pointer: impl Into<String>, msg: impl Into<String>) -> EarthError {
-    EarthError::new(pointer, Problem::InvalidGeoJson(msg.into()))
-}
-
-pub(super) fn array_of<'a>(
-    v: &'a Value,
-    pointer: &str,
-    what: &str,
-) -> Result<&'a Vec<Value>, EarthError> {
-    v.as_array().ok_or_else(|| {
-        invalid(
-            pointer,
-            format!(
-                "expected an array of {what}, got {}",
-                crate::earth::curve::json_kind(v)
-            ),
-        )
-    })
-}
-
 /// `Some("Polygon" | "MultiPolygon")` for a Feature object whose geometry is one.
 pub(super) fn polygon_type(feature: &Value) -> Option<&'static str> {
     if feature.get("type").and_then(Value::as_str) != Some("Feature") {
@@ -191,22 +174,5 @@ pub(super) fn polygon_type(feature: &Value) -> Option<&'static str> {
         Some("Polygon") => Some("Polygon"),
         Some("MultiPolygon") => Some("MultiPolygon"),
         _ => None,
-    }
-}
-
-pub(super) fn check_geometry_bbox(geometry: &Value, ptr: &str) -> Result<(), EarthError> {
-    match geometry.get("bbox") {
-        None => Ok(()),
-        Some(b)
-            if b.as_array().is_some_and(|a| {
-                (a.len() == 4 || a.len() == 6) && a.iter().all(Value::is_number)
-            }) =>
-        {
-            Ok(())
-        }
-        Some(_) => Err(invalid(
-            format!("{ptr}/bbox"),
-            "a bbox is an array of 4 or 6 numbers",
-        )),
     }
 }

@@ -64,17 +64,8 @@ impl Rebuild<'_> {
     ) -> RebuiltFeature {
         let (graph, fitted, input_ll) = (self.graph, self.arcs, &self.input.input_ll);
         let (job, tol_rad, tolerance_m) = (self.job, self.tol_rad, self.tolerance_m);
-        let Polygons {
-            mut out_polys,
-            out_ll,
-            split_any,
-            arcs_used,
-            parts,
-            ring_uses_out,
-            kept,
-            dropped,
-        } = self.polygons(fi, kind, polys);
-        let feature_arcs: Vec<&FittedArc> = arcs_used.iter().map(|&a| &fitted[a]).collect();
+        let mut p = self.polygons(fi, kind, polys);
+        let feature_arcs: Vec<&FittedArc> = p.arcs_used.iter().map(|&a| &fitted[a]).collect();
         let met = feature_arcs.iter().all(|a| a.tolerance_met);
         let tw = feature_arcs
             .iter()
@@ -86,23 +77,24 @@ impl Rebuild<'_> {
             .fold(0.0, f64::max);
         let stored: usize = feature_arcs.iter().map(|a| a.stored_numbers).sum();
         let n_in: usize = input_ll[fi].iter().flatten().map(Vec::len).sum();
-        let n_out: usize = out_ll.iter().flatten().map(Vec::len).sum();
+        let n_out: usize = p.out_ll.iter().flatten().map(Vec::len).sum();
         let area_in = area::lonlat_polygons_area_m2(&input_ll[fi]);
-        let area_out = area::lonlat_polygons_area_m2(&out_ll);
+        let area_out = area::lonlat_polygons_area_m2(&p.out_ll);
         let area_change = area::area_change(area_in, area_out);
-        let shared = arcs_used
+        let shared = p
+            .arcs_used
             .iter()
             .filter(|&&a| graph.arcs[a].uses > 1)
             .count();
-        let geometry = if out_polys.is_empty() && !dropped.is_empty() {
+        let geometry = if p.out_polys.is_empty() && !p.dropped.is_empty() {
             // Every polygon dropped: the feature stays, its geometry empty.
             json!({"type": "MultiPolygon", "coordinates": []})
-        } else if out_polys.is_empty() {
+        } else if p.out_polys.is_empty() {
             Value::Null
-        } else if kind == "Polygon" && out_polys.len() == 1 {
-            json!({"type": "Polygon", "coordinates": out_polys.pop().expect("one polygon")})
+        } else if kind == "Polygon" && p.out_polys.len() == 1 {
+            json!({"type": "Polygon", "coordinates": p.out_polys.pop().expect("one polygon")})
         } else {
-            json!({"type": "MultiPolygon", "coordinates": out_polys})
+            json!({"type": "MultiPolygon", "coordinates": p.out_polys})
         };
         // Foreign members of the input geometry come back with it (RFC 7946 §6.1).
         let mut geometry = geometry;
@@ -124,7 +116,7 @@ impl Rebuild<'_> {
         info.insert("two_way_distance_m".into(), json!(round_up_m(rad_to_m(tw))));
         info.insert("input_points".into(), json!(n_in));
         info.insert("output_points".into(), json!(n_out));
-        info.insert("arcs".into(), json!(arcs_used.len()));
+        info.insert("arcs".into(), json!(p.arcs_used.len()));
         info.insert("shared_arcs".into(), json!(shared));
         info.insert("stored_numbers".into(), json!(stored));
         info.insert(
@@ -133,10 +125,10 @@ impl Rebuild<'_> {
         );
         info.insert("area_m2".into(), json!(round_to(area_out, 0)));
         info.insert("area_change".into(), json!(round_to(area_change, 9)));
-        info.insert("antimeridian_split".into(), json!(split_any));
-        info.insert("kept_rings".into(), json!(kept));
+        info.insert("antimeridian_split".into(), json!(p.split_any));
+        info.insert("kept_rings".into(), json!(p.kept));
         if job.drop_small_rings {
-            info.insert("dropped_rings".into(), json!(dropped));
+            info.insert("dropped_rings".into(), json!(p.dropped));
         }
         info.insert(
             "tightened_arcs".into(),
@@ -146,7 +138,7 @@ impl Rebuild<'_> {
                 .count()),
         );
         info.insert("geometry".into(), json!(kind));
-        info.insert("parts".into(), Value::Array(parts));
+        info.insert("parts".into(), Value::Array(p.parts));
         let mut out = feature.as_object().cloned().unwrap_or_default();
         out.remove("bbox");
         out.insert("geometry".into(), geometry);
@@ -158,7 +150,8 @@ impl Rebuild<'_> {
         out.insert("properties".into(), Value::Object(props));
         RebuiltFeature {
             feature: Value::Object(out),
-            rings: (!split_any && kept.is_empty() && dropped.is_empty()).then_some(ring_uses_out),
+            rings: (!p.split_any && p.kept.is_empty() && p.dropped.is_empty())
+                .then_some(p.ring_uses_out),
             two_way_rad: tw,
             max_error_rad: err,
             tolerance_met: met,
@@ -167,8 +160,8 @@ impl Rebuild<'_> {
             input_points: n_in,
             output_points: n_out,
             curves: polys.iter().map(Vec::len).sum::<usize>(),
-            kept,
-            dropped,
+            kept: p.kept,
+            dropped: p.dropped,
         }
     }
 
