@@ -402,9 +402,10 @@ pub fn rounding_bound_rad(precision: u32) -> f64 {
 ///
 /// The fitter aims at the tolerance minus 1.5 times [`rounding_bound_rad`] so that the curve
 /// still meets it once its control points are rounded to `precision`; the errors are then
-/// measured on the rounded curve, and `tolerance_met` is true only when that max error (and
-/// its value rounded to millimetres) is within the tolerance. When rounding pushes a fit that
-/// met its target over the tolerance, it is refitted once with a target lowered by the excess.
+/// measured on the rounded curve, and `tolerance_met` is [`ToleranceRule::met`]. When
+/// rounding pushes a fit that met its target over the tolerance, it is refitted once with a
+/// target lowered by the excess ([`ToleranceRule::retry_target_rad`]); a coverage's arcs are
+/// judged and retried by the same rule.
 ///
 /// A ring (or a LineString whose last position repeats its first) is fitted as an open line
 /// through its positions (first = last) and then closed by pinning the end control points
@@ -432,11 +433,11 @@ pub fn fit_line_to_tolerance(
     let given = timed.as_ref().map(|t| t.params.as_slice());
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
-    let tol_rad = m_to_rad(tolerance_m);
-    let bound = rounding_bound_rad(output.precision);
+    let rule = ToleranceRule::new(tolerance_m, output.precision);
+    let tol_rad = rule.tol_rad;
     // The dense output adds its deviation to the curve's distance from the line.
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
-    let mut target = tolerance_target_rad(tol_rad, output.precision);
+    let mut target = rule.first_target_rad();
     // No control-point cap below the input's own size here: a long line at a small tolerance
     // may need nearly a control point per position, and the input limits already bound that.
     let mut topts = ToleranceOptions {
@@ -507,18 +508,13 @@ pub fn fit_line_to_tolerance(
             out,
         )?;
         let worst = max_rad.max(tw.upper_rad);
-        let met = worst <= tol_rad
-            && round_m(rad_to_m(worst)) <= tolerance_m
-            && tw.curve_length_rad <= MAX_LENGTH_RATIO * input_len + tol_rad;
-        if !met && r.tolerance_met && attempt == 0 && worst > tol_rad {
-            // Rounding (or closing the ring) took a fit that met its target over the
-            // tolerance: aim lower by the excess, once.
-            let lower = target - 2.0 * (worst - tol_rad) - bound;
-            if lower > 0.25 * tol_rad {
-                target = lower;
-                attempt += 1;
-                continue;
-            }
+        let met = rule.met(worst, tw.curve_length_rad, input_len);
+        // Rounding (or closing the ring) took a fit that met its target over the tolerance:
+        // aim lower by the excess, once.
+        if let Some(lower) = rule.retry_target_rad(target, worst, r.tolerance_met, attempt) {
+            target = lower;
+            attempt += 1;
+            continue;
         }
         let n_in = line.points.len();
         let f = &mut out.report.fields;

@@ -39,6 +39,7 @@ mod output;
 mod positions;
 mod stored;
 mod times;
+mod tolerance_rule;
 
 pub use fitting::*;
 pub use interpolation::*;
@@ -47,6 +48,7 @@ pub use output::*;
 pub use positions::*;
 pub use stored::*;
 pub use times::*;
+pub use tolerance_rule::*;
 
 #[cfg(test)]
 mod tests {

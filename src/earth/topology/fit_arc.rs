@@ -8,7 +8,7 @@ use super::*;
 pub(super) fn fit_arc(
     points_in: &[[f64; 3]],
     closed: bool,
-    tol_rad: f64,
+    tolerance: ToleranceRule,
     degree_cap: usize,
     parameterization: crate::sphere::Parameterization,
     job: &Job,
@@ -36,9 +36,10 @@ pub(super) fn fit_arc(
     let n_in = if closed { rows.len() - 1 } else { rows.len() };
     let points = PointSet::try_from_rows(&rows).map_err(|e| sphere_error(e, "", &[]))?;
     let output = &job.output;
-    let bound = rounding_bound_rad(output.precision);
+    let tol_rad = tolerance.tol_rad;
+    let line_length = polyline_length(&points);
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
-    let mut target = tolerance_target_rad(tol_rad, output.precision);
+    let mut target = tolerance.first_target_rad();
     let mut topts = ToleranceOptions {
         parameterization,
         max_control_points: Some(points.len()),
@@ -47,7 +48,8 @@ pub(super) fn fit_arc(
         ..ToleranceOptions::default()
     };
     topts.degrees.retain(|&p| p <= degree_cap);
-    let measure = |spline: &SphericalBSpline, params: &[f64]| -> Result<(f64, f64), EarthError> {
+    // The max error at the positions, and the two-way distance and the curve's length.
+    let measure = |spline: &SphericalBSpline, params: &[f64]| -> Result<Measured, EarthError> {
         let errs = pointwise_errors(spline, &points, params);
         let max = errs.iter().fold(0.0f64, |a, &b| a.max(b));
         let tw = two_way_distance(
@@ -59,42 +61,37 @@ pub(super) fn fit_arc(
                 .with_max_evaluations(4_000_000 + 400 * points.len()),
         )
         .map_err(|e| sphere_error(e, "", &[]))?;
-        Ok((max, tw.upper_rad))
+        Ok(Measured {
+            max_rad: max,
+            two_way_rad: tw.upper_rad,
+            curve_length_rad: tw.curve_length_rad,
+        })
     };
+    let met = |m: &Measured| tolerance.met(m.worst_rad(), m.curve_length_rad, line_length);
     let mut attempt = 0;
-    let (spline, control_ll, rule, max_rad, tw_rad, seam) = loop {
+    let (spline, control_ll, rule, measured, seam) = loop {
         let r = fit_to_tolerance(&points, None, target, &topts)
             .map_err(|e| sphere_error(e, "", &[]))?;
         let (rounded, ll) =
             round_spline(&r.spline, output.precision).map_err(|e| sphere_error(e, "", &[]))?;
-        let (max, tw) = measure(&rounded, &r.parameters)?;
-        let mut best = (
-            rounded,
-            ll,
-            r.knot_rule,
-            max,
-            tw,
-            closed.then_some("corner"),
-        );
+        let m = measure(&rounded, &r.parameters)?;
+        let mut best = (rounded, ll, r.knot_rule, m, closed.then_some("corner"));
         if closed && smooth_seam && r.spline.degree() >= 2 {
             // A C1 seam where the ring is smooth, kept when the tolerance still holds.
             if let Ok(c1) = close_seam(&r.spline, true) {
                 if let Ok((rc, llc)) = round_spline(&c1, output.precision) {
-                    let (m2, t2) = measure(&rc, &r.parameters)?;
-                    if m2.max(t2) <= tol_rad {
-                        best = (rc, llc, r.knot_rule, m2, t2, Some("smooth"));
+                    let m2 = measure(&rc, &r.parameters)?;
+                    if met(&m2) {
+                        best = (rc, llc, r.knot_rule, m2, Some("smooth"));
                     }
                 }
             }
         }
-        let worst = best.3.max(best.4);
-        if worst > tol_rad && r.tolerance_met && attempt == 0 {
-            let lower = target - 2.0 * (worst - tol_rad) - bound;
-            if lower > 0.25 * tol_rad {
-                target = lower;
-                attempt += 1;
-                continue;
-            }
+        let worst = best.3.worst_rad();
+        if let Some(lower) = tolerance.retry_target_rad(target, worst, r.tolerance_met, attempt) {
+            target = lower;
+            attempt += 1;
+            continue;
         }
         break best;
     };
@@ -160,15 +157,17 @@ pub(super) fn fit_arc(
         pts.retain(|_| *k.next().expect("one flag a position"));
     }
     let stored = stored_numbers(&spline, rule);
-    let met = max_rad.max(tw_rad) <= tol_rad;
+    let met = met(&measured);
     Ok(FittedArc {
         stored_numbers: stored,
         knot_rule: rule,
         control_ll,
         dense: pts,
         dense_ll,
-        max_error_rad: max_rad,
-        two_way_rad: tw_rad,
+        max_error_rad: measured.max_rad,
+        two_way_rad: measured.two_way_rad,
+        curve_length_rad: measured.curve_length_rad,
+        line_length_rad: line_length,
         tolerance_met: met,
         input_points: n_in,
         seam,
@@ -178,7 +177,25 @@ pub(super) fn fit_arc(
     })
 }
 
-/// Whether a fitted arc meets `tol_rad` (the job's tolerance, for an arc refitted tighter).
-pub(super) fn tolerance_met_by(arc: &FittedArc, tol_rad: f64) -> bool {
-    arc.max_error_rad.max(arc.two_way_rad) <= tol_rad
+/// What is measured of an arc's curve as returned.
+struct Measured {
+    max_rad: f64,
+    two_way_rad: f64,
+    curve_length_rad: f64,
+}
+
+impl Measured {
+    /// The larger of the max error and the two-way distance.
+    fn worst_rad(&self) -> f64 {
+        self.max_rad.max(self.two_way_rad)
+    }
+}
+
+/// Whether a fitted arc meets `tolerance` (the job's, for an arc refitted tighter).
+pub(super) fn tolerance_met_by(arc: &FittedArc, tolerance: &ToleranceRule) -> bool {
+    tolerance.met(
+        arc.max_error_rad.max(arc.two_way_rad),
+        arc.curve_length_rad,
+        arc.line_length_rad,
+    )
 }

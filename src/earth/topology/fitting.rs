@@ -30,8 +30,8 @@ struct ArcFitting<'a> {
 }
 
 impl ArcFitting<'_> {
-    /// Fits arc `a` to `tol_rad`; errors point at the first ring using it.
-    fn fit(&self, a: usize, tol_rad: f64) -> Result<FittedArc, EarthError> {
+    /// Fits arc `a` to `tolerance`; errors point at the first ring using it.
+    fn fit(&self, a: usize, tolerance: ToleranceRule) -> Result<FittedArc, EarthError> {
         let _scope = self.job.cancel.enter();
         let pointer = &self.sources[self.arc_ring[a]].pointer;
         self.job
@@ -41,7 +41,7 @@ impl ArcFitting<'_> {
         fit_arc(
             &self.input_arcs[a],
             self.graph.arcs[a].closed,
-            tol_rad,
+            tolerance,
             self.degree_cap,
             self.parameterization,
             self.job,
@@ -53,23 +53,23 @@ impl ArcFitting<'_> {
     fn fit_many(
         &self,
         which: &[usize],
-        tol_rad: impl Fn(usize) -> f64 + Sync,
+        tolerance: impl Fn(usize) -> ToleranceRule + Sync,
     ) -> Result<Vec<FittedArc>, EarthError> {
         which
             .par_iter()
-            .map(|&a| self.fit(a, tol_rad(a)))
+            .map(|&a| self.fit(a, tolerance(a)))
             .collect::<Vec<_>>()
             .into_iter()
             .collect()
     }
 }
 
-/// Fits every arc of `graph` to `tol_rad` and tightens the arcs that cross (see the module
+/// Fits every arc of `graph` to `tolerance` and tightens the arcs that cross (see the module
 /// docs). `sources` says where each ring came from.
 pub(super) fn fit_arcs(
     graph: &ArcGraph,
     sources: &[RingSource],
-    tol_rad: f64,
+    tolerance: ToleranceRule,
     options: &crate::sphere::FitOptions,
     job: &Job,
 ) -> Result<FittedArcs, EarthError> {
@@ -91,8 +91,8 @@ pub(super) fn fit_arcs(
         job,
     };
     let all: Vec<usize> = (0..graph.arcs.len()).collect();
-    let fitted = fitting.fit_many(&all, |_| tol_rad)?;
-    tighten(&fitting, fitted, tol_rad)
+    let fitted = fitting.fit_many(&all, |_| tolerance)?;
+    tighten(&fitting, fitted, tolerance)
 }
 
 /// Refits the arcs that cross where their input did not at half their tolerance, up to
@@ -100,7 +100,7 @@ pub(super) fn fit_arcs(
 fn tighten(
     fitting: &ArcFitting<'_>,
     mut fitted: Vec<FittedArc>,
-    tol_rad: f64,
+    tolerance: ToleranceRule,
 ) -> Result<FittedArcs, EarthError> {
     let (graph, input_arcs) = (fitting.graph, &fitting.input_arcs);
     // Rings by polygon (exterior and holes), so holes are checked against their shell too.
@@ -119,7 +119,7 @@ fn tighten(
         .filter(|&&(a, b)| polylines_cross(&input_arcs[a], &input_arcs[b], a == b))
         .copied()
         .collect();
-    let mut arc_tol = vec![tol_rad; graph.arcs.len()];
+    let mut arc_tol = vec![tolerance; graph.arcs.len()];
     let mut crossings_left = Vec::new();
     for round in 0..=TIGHTEN_ROUNDS {
         let crossing: Vec<(usize, usize)> = pairs
@@ -135,21 +135,24 @@ fn tighten(
         let mut redo: Vec<usize> = crossing.iter().flat_map(|&(a, b)| [a, b]).collect();
         redo.sort_unstable();
         redo.dedup();
-        let refits = fitting.fit_many(&redo, |a| 0.5 * arc_tol[a])?;
+        let refits = fitting.fit_many(&redo, |a| arc_tol[a].halved())?;
         for (a, f) in redo.into_iter().zip(refits) {
-            arc_tol[a] *= 0.5;
+            arc_tol[a] = arc_tol[a].halved();
             fitted[a] = FittedArc {
-                tolerance_met: tolerance_met_by(&f, tol_rad),
+                tolerance_met: tolerance_met_by(&f, &tolerance),
                 ..f
             };
         }
     }
     for (a, f) in fitted.iter_mut().enumerate() {
-        f.tolerance_rad = arc_tol[a];
+        f.tolerance_rad = arc_tol[a].tol_rad;
     }
     Ok(FittedArcs {
         arcs: fitted,
-        tightened: arc_tol.iter().filter(|&&t| t < tol_rad).count(),
+        tightened: arc_tol
+            .iter()
+            .filter(|t| t.tol_rad < tolerance.tol_rad)
+            .count(),
         crossings_left,
     })
 }

@@ -46,15 +46,15 @@ pub const TIGHTEN_ROUNDS: usize = 3;
 use super::antimeridian;
 use super::area;
 use super::curve::{
-    compression_ratio, prepare_line, round_spline, round_up_m, rounding_bound_rad, sampling_start,
-    sphere_error, tolerance_target_rad,
+    compression_ratio, prepare_line, round_spline, round_up_m, sampling_start, sphere_error,
+    ToleranceRule,
 };
 use super::features::{process_feature, Document, FeatureStats, Source};
-use super::lonlat::{m_to_rad, rad_to_m, round_to, unit_to_lonlat};
+use super::lonlat::{rad_to_m, round_to, unit_to_lonlat};
 use super::sampling::{sample, AUTO_DEVIATION_FRACTION};
 use super::small_rings;
 use super::{EarthError, Job, Operation, Problem};
-use crate::sphere::certify::two_way::{two_way_distance, TwoWayOptions};
+use crate::sphere::certify::two_way::{polyline_length, two_way_distance, TwoWayOptions};
 use crate::sphere::compress::tolerance::{
     fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions,
 };
@@ -87,7 +87,11 @@ pub struct FittedArc {
     pub max_error_rad: f64,
     /// Certified two-way distance between the curve and the arc's input polyline, radians.
     pub two_way_rad: f64,
-    /// Both within the tolerance.
+    /// Length of the curve, radians.
+    pub curve_length_rad: f64,
+    /// Length of the arc's input polyline, radians.
+    pub line_length_rad: f64,
+    /// Within the tolerance ([`ToleranceRule::met`]).
     pub tolerance_met: bool,
     /// Numbers the spline stores.
     pub stored_numbers: usize,
@@ -222,12 +226,13 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     let _scope = job.cancel.enter();
     let mut input = read_coverage(&doc, job)?;
     let graph = ArcGraph::build(&input.rings);
-    let tol_rad = m_to_rad(*tolerance_m);
+    let tolerance = ToleranceRule::new(*tolerance_m, job.output.precision);
+    let tol_rad = tolerance.tol_rad;
     let FittedArcs {
         arcs: fitted,
         tightened,
         crossings_left,
-    } = fit_arcs(&graph, &input.sources, tol_rad, options, job)?;
+    } = fit_arcs(&graph, &input.sources, tolerance, options, job)?;
     // Rebuild the polygon features from their rings' arcs.
     let mut by_feature: Vec<FeatureRings<'_>> = vec![Vec::new(); doc.slots.len()];
     for (ri, s) in input.sources.iter().enumerate() {

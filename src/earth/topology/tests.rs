@@ -1,4 +1,5 @@
 use super::*;
+use crate::earth::lonlat::m_to_rad;
 use crate::sphere::FitOptions;
 
 fn job(tolerance_m: f64) -> Job {
