@@ -25,12 +25,8 @@ pub fn interpolate_line(
         .with_beta2(settings.beta2);
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
     let r = interpolate(&points, &opts).map_err(fit_err)?;
-    let (curve, doc) = round_beta(&r.spline, output.precision).map_err(|e| {
-        EarthError::new(
-            pointer,
-            Problem::InvalidSpline(format!("rounding the curve: {e}")),
-        )
-    })?;
+    let (curve, doc) = round_beta(&r.spline, output.precision)
+        .map_err(|e| EarthError::new(pointer, Problem::RoundedCurve(e)))?;
     // Distance from each input position to the rounded curve at its parameter j.
     let params: Vec<f64> = (0..distinct.len()).map(|j| j as f64).collect();
     let at = curve.evaluate_many(&params);
