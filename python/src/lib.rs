@@ -24,6 +24,7 @@ use spherefit::earth::{
 };
 use spherefit::sphere::cancel::Cancel;
 use spherefit::sphere::curve::even_parameters;
+use spherefit::sphere::fit::options_check::check_tolerance_fit;
 use spherefit::sphere::{
     fit, fit_to_tolerance, interpolate, BetaSolver, FitOptions, InputSite, InterpolationOptions,
     KnotPlacement, Parameterization, PointSet, Solver, SphereError, SphericalCurve, StepRule,
@@ -646,6 +647,7 @@ fn sphere_fit(
         options.control_points = control_points;
         spherefit::earth::check_target_max_error_rad(target_max_error_rad)
             .map_err(option_failure)?;
+        check_tolerance_fit(tolerance_rad, control_points).map_err(|e| option_failure(e.into()))?;
         options.target_max_error_rad = target_max_error_rad;
         let points = point_set(&data, m, d)?;
         if let Some(tolerance_rad) = tolerance_rad {

@@ -113,17 +113,7 @@ pub fn parse_number(s: &str) -> Option<f64> {
 }
 
 /// Parameters of `/v1/sphere/fit`.
-pub const SPHERE_FIT_PARAMS: &[&str] = &[
-    "control_points",
-    "degree",
-    "knots",
-    "iterations",
-    "parameterization",
-    "solver",
-    "parameter_correction",
-    "target_max_error_rad",
-    "tolerance_rad",
-];
+pub const SPHERE_FIT_PARAMS: &[&str] = &crate::sphere::fit::options_check::SPHERE_FIT_OPTIONS;
 /// Parameters of `/v1/sphere/evaluate`.
 pub const SPHERE_EVALUATE_PARAMS: &[&str] = &["samples", "at"];
 /// Parameters of `/v1/sphere/interpolate`.
@@ -161,17 +151,16 @@ pub fn fit_options(p: &Params, base: FitOptions) -> Result<FitOptions, ApiError>
 }
 
 /// `tolerance_rad` of `/v1/sphere/fit`, if given, checked by
-/// [`crate::earth::check_sphere_tolerance`].
+/// [`crate::sphere::fit::options_check::check_tolerance_fit`].
 ///
 /// # Errors
 /// 400 when it does not parse; 422 when it is not a positive number or comes with
 /// `control_points`.
 pub fn sphere_tolerance(p: &Params) -> Result<Option<f64>, ApiError> {
     let t = p.num("tolerance_rad")?;
-    Ok(crate::earth::check_sphere_tolerance(
-        t,
-        p.int("control_points")?,
-    )?)
+    let checked =
+        crate::sphere::fit::options_check::check_tolerance_fit(t, p.int("control_points")?);
+    Ok(checked.map_err(crate::earth::EarthError::from)?)
 }
 
 /// The Earth job of a geo endpoint: the query read into [`RawOptions`] and checked by

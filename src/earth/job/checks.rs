@@ -52,18 +52,14 @@ pub fn check_target_max_error_rad(target: Option<f64>) -> Result<(), EarthError>
 /// # Errors
 /// [`Problem::InvalidOption`] naming the option.
 pub fn check_tolerance(option: &'static str, tolerance: f64) -> Result<(), EarthError> {
-    if tolerance.is_finite() && tolerance > 0.0 {
-        return Ok(());
-    }
     let unit = if option == "tolerance_m" {
         "metres"
     } else {
         "radians"
     };
-    Err(invalid_option(
-        option,
-        format!("{tolerance}: the tolerance must be a positive number of {unit}"),
-    ))
+    Ok(crate::sphere::fit::options_check::check_positive_tolerance(
+        option, tolerance, unit,
+    )?)
 }
 
 /// A count option in `min..=max`, `max` the limit that bounds it.

@@ -158,27 +158,3 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
     job.validate()?;
     Ok(job)
 }
-
-/// The tolerance of an S^n fit (`tolerance_rad`), checked: positive, and not with
-/// `control_points` (a tolerance fit chooses its own), the rule [`into_job`] applies to
-/// `tolerance_m`.
-///
-/// # Errors
-/// [`Problem::ConflictingOptions`] or [`Problem::InvalidOption`] naming `tolerance_rad`.
-pub fn check_sphere_tolerance(
-    tolerance_rad: Option<f64>,
-    control_points: Option<usize>,
-) -> Result<Option<f64>, EarthError> {
-    let Some(t) = tolerance_rad else {
-        return Ok(None);
-    };
-    if control_points.is_some() {
-        return Err(conflict(
-            "tolerance_rad",
-            "control_points",
-            "a tolerance fit chooses its own control points",
-        ));
-    }
-    check_tolerance("tolerance_rad", t)?;
-    Ok(Some(t))
-}

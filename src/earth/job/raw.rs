@@ -3,6 +3,7 @@
 //! the enumerations its options name.
 
 use super::*;
+use crate::sphere::fit::options_check::{concat_names, SPLINE_OPTIONS};
 
 /// Parses `-?digits(.digits)?([eE][+-]?digits)?` (also `.5` and `5.`), a number as JSON
 /// writes it; anything else (`inf`, `NaN`, `+1`, spaces) is `None`.
@@ -86,6 +87,22 @@ pub enum OutputFormat {
 
 from_names!(OutputFormat { "geojson" => OutputFormat::GeoJson, "topojson" => OutputFormat::TopoJson });
 
+/// The options of a fit on the Earth: the spline options every fit takes, then the Earth's.
+const FIT_OPTIONS: [&str; 16] = concat_names(
+    SPLINE_OPTIONS,
+    [
+        "tolerance_m",
+        "time_property",
+        "samples",
+        "spacing_m",
+        "spacing_s",
+        "precision",
+        "topology",
+        "format",
+        "drop_small_rings",
+    ],
+);
+
 /// The operations a [`RawOptions`] is assembled for, each with the options it takes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OperationKind {
@@ -102,24 +119,7 @@ impl OperationKind {
     /// command line's flags are these with `-` for `_`).
     pub fn option_names(self) -> &'static [&'static str] {
         match self {
-            OperationKind::Fit => &[
-                "control_points",
-                "degree",
-                "knots",
-                "iterations",
-                "parameterization",
-                "solver",
-                "parameter_correction",
-                "tolerance_m",
-                "time_property",
-                "samples",
-                "spacing_m",
-                "spacing_s",
-                "precision",
-                "topology",
-                "format",
-                "drop_small_rings",
-            ],
+            OperationKind::Fit => &FIT_OPTIONS,
             OperationKind::Interpolate => &["beta1", "beta2", "samples", "spacing_m", "precision"],
             OperationKind::Evaluate => &["samples", "spacing_m", "spacing_s", "at", "precision"],
         }
