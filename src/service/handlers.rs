@@ -261,6 +261,16 @@ fn check_point_count(n: usize, base: &str, config: &ServiceConfig) -> Result<(),
     Ok(())
 }
 
+/// The body of an S^n response made of one curve from `points` input points, with the counts
+/// the metrics take (points, curves).
+fn one_curve(
+    doc: &impl serde::Serialize,
+    points: usize,
+) -> Result<(Vec<u8>, usize, usize), ApiError> {
+    let body = serde_json::to_vec(doc).map_err(|_| ApiError::internal())?;
+    Ok((body, points, 1))
+}
+
 /// The options of `/v1/sphere/fit`, checked against the limits.
 fn sphere_fit_options(
     config: &ServiceConfig,
@@ -301,9 +311,7 @@ pub(super) async fn sphere_fit(req: PostRequest) -> Result<Response, ApiError> {
                     &t,
                 )
                 .map_err(|e| sphere_error(e, base))?;
-                let body = serde_json::to_vec(&tolerance_document(&r))
-                    .map_err(|_| ApiError::internal())?;
-                return Ok((body, input.points.len(), 1));
+                return one_curve(&tolerance_document(&r), input.points.len());
             }
             let mut options = options;
             options.cancel = cancel.clone();
@@ -315,9 +323,7 @@ pub(super) async fn sphere_fit(req: PostRequest) -> Result<Response, ApiError> {
             let report =
                 crate::sphere::fit::fit(&input.points, input.parameters.as_deref(), &options)
                     .map_err(|e| sphere_error(e, base))?;
-            let body = serde_json::to_vec(&FitDocument::from(&report))
-                .map_err(|_| ApiError::internal())?;
-            Ok((body, input.points.len(), 1))
+            one_curve(&FitDocument::from(&report), input.points.len())
         })
         .await?;
     Ok(respond(JSON, out))
@@ -361,9 +367,7 @@ pub(super) async fn sphere_interpolate(req: PostRequest) -> Result<Response, Api
             }
             check_point_count(input.points.len(), base, &config)?;
             let r = interpolate(&input.points, &options).map_err(|e| sphere_error(e, base))?;
-            let body = serde_json::to_vec(&InterpolationDocument::from(&r))
-                .map_err(|_| ApiError::internal())?;
-            Ok((body, input.points.len(), 1))
+            one_curve(&InterpolationDocument::from(&r), input.points.len())
         })
         .await?;
     Ok(respond(JSON, out))

@@ -289,25 +289,15 @@ mod tests {
         assert_eq!(job.output, OutputOptions::default());
     }
 
+    /// Which options go together is `into_job`'s business, tested there: the query only
+    /// reads the parameters and answers its refusals with a 422 naming the option.
     #[test]
-    fn time_options_are_read_and_implied() {
+    fn rules_between_options_come_back_as_422_naming_the_option() {
         let l = Limits::default();
-        let job = geo_job(pairs(&[("parameterization", "time")]), GeoEndpoint::Fit, &l).unwrap();
-        assert_eq!(job.time.fit_in_time, Some(TimeSource::Auto));
-        // parameterization=time is not a math-core parameterisation: the fit options keep theirs.
-        assert_eq!(
-            job.operation.fit_options().unwrap().parameterization,
-            FitOptions::faithful().parameterization
-        );
         let job = geo_job(pairs(&[("time_property", "when")]), GeoEndpoint::Fit, &l).unwrap();
         assert_eq!(
             job.time.fit_in_time,
             Some(TimeSource::Property("when".into()))
-        );
-        let job = geo_job(pairs(&[("spacing_s", "30")]), GeoEndpoint::Fit, &l).unwrap();
-        assert_eq!(
-            (job.time.fit_in_time, job.output.sampling),
-            (Some(TimeSource::Auto), Sampling::SpacingS(30.0))
         );
         let e = geo_job(
             pairs(&[("parameterization", "chord"), ("spacing_s", "30")]),
@@ -315,30 +305,6 @@ mod tests {
             &l,
         )
         .unwrap_err();
-        assert_eq!(
-            (e.status.as_u16(), e.parameter.as_deref()),
-            (422, Some("spacing_s"))
-        );
-        let e = geo_job(
-            pairs(&[("spacing_s", "30"), ("samples", "10")]),
-            GeoEndpoint::Evaluate,
-            &l,
-        )
-        .unwrap_err();
-        assert_eq!(e.status.as_u16(), 422);
-        let job = geo_job(
-            pairs(&[("at", "1,2010-10-03T09:36:30Z")]),
-            GeoEndpoint::Evaluate,
-            &l,
-        )
-        .unwrap();
-        assert_eq!(job.time.at_unix_s, Some(vec![1.0, 1286098590.0]));
-        let e = geo_job(pairs(&[("at", "1,,2")]), GeoEndpoint::Evaluate, &l).unwrap_err();
-        assert_eq!(
-            (e.status.as_u16(), e.parameter.as_deref()),
-            (422, Some("at"))
-        );
-        let e = geo_job(pairs(&[("spacing_s", "0")]), GeoEndpoint::Evaluate, &l).unwrap_err();
         assert_eq!(
             (e.status.as_u16(), e.parameter.as_deref()),
             (422, Some("spacing_s"))
