@@ -236,9 +236,12 @@ pub fn fit_line(
     let (spline, control_ll, params, iterations, converged, tw, _, _, solver) = m_best;
     let (mut out, _) = finish_fit(
         Fitted {
-            line: &line,
-            distinct: &distinct,
-            points: &points,
+            input: Prepared {
+                line: &line,
+                distinct: &distinct,
+                points: &points,
+                time: timed.as_ref(),
+            },
             spline,
             control_ll,
             params,
@@ -247,7 +250,6 @@ pub fn fit_line(
             knots: serde_json::to_value(options.knots).expect("enum serialises"),
             parameterization: options.parameterization,
             sampling_aim_rad: None,
-            time: timed.as_ref(),
         },
         src,
         out,
@@ -270,11 +272,19 @@ pub fn fit_line(
     Ok(out)
 }
 
-/// A fitted curve (control points already rounded) and what it was fitted to.
-pub(super) struct Fitted<'a> {
+/// A line as read for a fit: its positions, the distinct ones (also as unit vectors) and, for a
+/// fit in time, its times.
+#[derive(Clone, Copy)]
+pub(super) struct Prepared<'a> {
     line: &'a LinePositions,
     distinct: &'a DistinctPositions,
     points: &'a PointSet,
+    time: Option<&'a Timed>,
+}
+
+/// A fitted curve (control points already rounded) and what it was fitted to.
+pub(super) struct Fitted<'a> {
+    input: Prepared<'a>,
     spline: SphericalBSpline,
     control_ll: Vec<[f64; 2]>,
     params: Vec<f64>,
@@ -284,8 +294,6 @@ pub(super) struct Fitted<'a> {
     parameterization: crate::sphere::Parameterization,
     /// What automatic dense sampling aims for; by default a share of the max error.
     sampling_aim_rad: Option<f64>,
-    /// The line's times, for a fit in time.
-    time: Option<&'a Timed>,
 }
 
 /// Measures a fitted curve as returned, samples it and writes its `properties.fit` fields.
@@ -297,9 +305,13 @@ pub(super) fn finish_fit(
 ) -> Result<(CurveOutput, f64), EarthError> {
     let (pointer, closed) = (src.pointer, src.closed);
     let Fitted {
-        line,
-        distinct,
-        points,
+        input:
+            Prepared {
+                line,
+                distinct,
+                points,
+                time,
+            },
         spline,
         control_ll,
         params,
@@ -308,7 +320,6 @@ pub(super) fn finish_fit(
         knots,
         parameterization,
         sampling_aim_rad,
-        time,
     } = f;
     let control_points = spline.control_points().len();
     // Errors of the spline as returned, each distinct position counted once per input copy.
@@ -438,6 +449,12 @@ pub fn fit_line_to_tolerance(
     // The dense output adds its deviation to the curve's distance from the line.
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
     let mut target = rule.first_target_rad();
+    let input = Prepared {
+        line: &line,
+        distinct: &distinct,
+        points: &points,
+        time: timed.as_ref(),
+    };
     // No control-point cap below the input's own size here: a long line at a small tolerance
     // may need nearly a control point per position, and the input limits already bound that.
     let mut topts = ToleranceOptions {
@@ -489,9 +506,7 @@ pub fn fit_line_to_tolerance(
         let knot_rule = serde_json::to_value(r.knot_rule).expect("enum serialises");
         let (mut out, max_rad) = finish_fit(
             Fitted {
-                line: &line,
-                distinct: &distinct,
-                points: &points,
+                input,
                 spline,
                 control_ll,
                 params: r.parameters,
@@ -502,7 +517,6 @@ pub fn fit_line_to_tolerance(
                 // The margin the fit left for the dense output, so the returned geometry
                 // stays within the tolerance too.
                 sampling_aim_rad: Some(dense_margin),
-                time: timed.as_ref(),
             },
             src,
             out,
