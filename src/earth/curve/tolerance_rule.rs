@@ -71,3 +71,42 @@ impl ToleranceRule {
         (lower > 0.25 * self.tol_rad).then_some(lower)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn met_needs_the_distance_its_millimetres_and_the_length_within_the_tolerance() {
+        let rule = ToleranceRule::new(100.0, 7);
+        let m = |x: f64| m_to_rad(x);
+        assert!(rule.met(m(99.0), 1.0, 1.0));
+        assert!(!rule.met(m(100.01), 1.0, 1.0));
+        // A sub-millimetre tolerance: within it, but not once rounded to the millimetre.
+        let fine = ToleranceRule::new(0.0007, 7);
+        assert!(!fine.met(m(0.0006), 1.0, 1.0));
+        assert!(fine.met(m(0.0004), 1.0, 1.0));
+        // A curve much longer than its line does not meet it, however close.
+        assert!(!rule.met(m(1.0), 1.3, 1.0));
+        assert!(rule.met(m(1.0), 1.2, 1.0));
+    }
+
+    #[test]
+    fn halving_is_exact_and_one_retry_aims_lower_by_the_excess() {
+        let rule = ToleranceRule::new(100.0, 7);
+        let half = rule.halved();
+        assert_eq!(half.tolerance_m, 50.0);
+        assert_eq!(half.tol_rad, m_to_rad(50.0));
+        let t = rule.first_target_rad();
+        assert!(t < rule.tol_rad);
+        let over = 1.01 * rule.tol_rad;
+        let lower = rule.retry_target_rad(t, over, true, 0).expect("a retry");
+        assert!(lower < t - 2.0 * (over - rule.tol_rad) + 1e-18);
+        // Only once, only when the fitter met its target, only when over the tolerance.
+        assert_eq!(rule.retry_target_rad(t, over, true, 1), None);
+        assert_eq!(rule.retry_target_rad(t, over, false, 0), None);
+        assert_eq!(rule.retry_target_rad(t, 0.99 * rule.tol_rad, true, 0), None);
+        // Not below a quarter of the tolerance.
+        assert_eq!(rule.retry_target_rad(t, 1.5 * rule.tol_rad, true, 0), None);
+    }
+}

@@ -101,3 +101,39 @@ pub fn check_positive_tolerance(
         message: format!("{tolerance}: the tolerance must be a positive number of {unit}"),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_sphere_fit_options_are_the_spline_options_then_its_own() {
+        assert_eq!(SPHERE_FIT_OPTIONS[..7], SPLINE_OPTIONS);
+        assert_eq!(
+            SPHERE_FIT_OPTIONS[7..],
+            ["target_max_error_rad", "tolerance_rad"]
+        );
+    }
+
+    #[test]
+    fn a_tolerance_is_positive_and_excludes_control_points() {
+        assert_eq!(check_tolerance_fit(None, Some(5)), Ok(None));
+        assert_eq!(check_tolerance_fit(Some(1e-3), None), Ok(Some(1e-3)));
+        assert!(matches!(
+            check_tolerance_fit(Some(1e-3), Some(5)),
+            Err(FitOptionError::Conflicting {
+                option: "tolerance_rad",
+                other: "control_points",
+                ..
+            })
+        ));
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let e = check_tolerance_fit(Some(bad), None).unwrap_err();
+            assert!(
+                e.to_string().starts_with("tolerance_rad: ")
+                    && e.to_string().ends_with("positive number of radians"),
+                "{e}"
+            );
+        }
+    }
+}
