@@ -85,14 +85,7 @@ fn coverage_work(
 ) -> Result<(Vec<u8>, usize, usize), ApiError> {
     let value = parse_json(bytes)?;
     let doc = Document::parse(value, false)?;
-    let (total, over) = doc.curve_positions(config.max_points);
-    if let Some(i) = over {
-        return Err(ApiError::too_many_points(
-            total,
-            config.max_points,
-            doc.slots[i].pointer.clone(),
-        ));
-    }
+    check_positions(&doc, config)?;
     let coverage = crate::earth::topology::fit_coverage(doc, job)?;
     let stats = coverage.stats;
     if stats.curves == 0 {
@@ -120,6 +113,20 @@ fn coverage_work(
     Ok((bytes, stats.input_points, stats.curves))
 }
 
+/// A 413 `too-many-points` for a document whose curves hold more positions than
+/// the server takes, pointing at the first feature past the limit.
+fn check_positions(doc: &Document, config: &ServiceConfig) -> Result<(), ApiError> {
+    let (total, over) = doc.curve_positions(config.max_points);
+    match over {
+        Some(i) => Err(ApiError::too_many_points(
+            total,
+            config.max_points,
+            doc.slots[i].pointer.clone(),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Parses, fits (features in parallel, first error in input order wins) and serialises.
 fn geo_work(
     bytes: &[u8],
@@ -131,14 +138,7 @@ fn geo_work(
     let value = parse_json(bytes)?;
     let doc = Document::parse(value, endpoint == GeoEndpoint::Evaluate)?;
     if endpoint != GeoEndpoint::Evaluate {
-        let (total, over) = doc.curve_positions(config.max_points);
-        if let Some(i) = over {
-            return Err(ApiError::too_many_points(
-                total,
-                config.max_points,
-                doc.slots[i].pointer.clone(),
-            ));
-        }
+        check_positions(&doc, config)?;
     }
     // Output that is known before any work (`samples` per curve) is checked up front; the
     // rest (automatic sampling, spacing_m) is counted as features finish, and the work stops
