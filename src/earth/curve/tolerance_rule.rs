@@ -38,7 +38,8 @@ impl ToleranceRule {
         }
     }
 
-    /// What the fitter aims at first ([`tolerance_target_rad`]).
+    /// What the fitter aims at first: below the tolerance by the rounding of the control
+    /// points and by the dense output's margin, where that leaves room.
     pub fn first_target_rad(&self) -> f64 {
         tolerance_target_rad(self.tol_rad, self.precision)
     }
