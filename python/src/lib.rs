@@ -24,6 +24,7 @@ use spherefit::earth::{
 };
 use spherefit::sphere::cancel::Cancel;
 use spherefit::sphere::curve::even_parameters;
+use spherefit::sphere::fit::options_check::check_tolerance_fit;
 use spherefit::sphere::{
     fit, fit_to_tolerance, interpolate, BetaSolver, FitOptions, InputSite, InterpolationOptions,
     KnotPlacement, Parameterization, PointSet, Solver, SphereError, SphericalCurve, StepRule,
@@ -243,11 +244,20 @@ where
     if let Some(e) = interrupt {
         return Err(e);
     }
-    let mut geoms = Vec::with_capacity(results.len());
-    let mut infos = Vec::with_capacity(results.len());
-    let mut scalars = Vec::with_capacity(results.len());
-    for r in results {
-        match r.map_err(|f| f.into_py(py))? {
+    let outcomes = results
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|f| f.into_py(py))?;
+    columns(py, outcomes)
+}
+
+/// The columns Python gets back for these outcomes.
+fn columns(py: Python<'_>, outcomes: Vec<Outcome>) -> PyResult<Columns> {
+    let mut geoms = Vec::with_capacity(outcomes.len());
+    let mut infos = Vec::with_capacity(outcomes.len());
+    let mut scalars = Vec::with_capacity(outcomes.len());
+    for o in outcomes {
+        match o {
             None => {
                 geoms.push(None);
                 infos.push(None);
@@ -472,23 +482,7 @@ fn coverage(py: Python<'_>, rows: Vec<Option<Row>>, job: &Job) -> PyResult<FitCo
         Ok((outcomes, collection["topology"].to_string()))
     };
     let (outcomes, topology) = py.detach(run).map_err(|f| f.into_py(py))?;
-    let mut geoms = Vec::with_capacity(outcomes.len());
-    let mut infos = Vec::with_capacity(outcomes.len());
-    let mut scalars = Vec::with_capacity(outcomes.len());
-    for o in outcomes {
-        match o {
-            None => {
-                geoms.push(None);
-                infos.push(None);
-                scalars.push(None);
-            }
-            Some((wkb, info)) => {
-                geoms.push(Some(PyBytes::new(py, &wkb).unbind()));
-                infos.push(Some(info.to_string()));
-                scalars.push(Some(scalar_fields(py, &info)?.unbind()));
-            }
-        }
-    }
+    let (geoms, infos, scalars) = columns(py, outcomes)?;
     Ok((geoms, infos, scalars, Some(topology)))
 }
 
@@ -653,6 +647,7 @@ fn sphere_fit(
         options.control_points = control_points;
         spherefit::earth::check_target_max_error_rad(target_max_error_rad)
             .map_err(option_failure)?;
+        check_tolerance_fit(tolerance_rad, control_points).map_err(|e| option_failure(e.into()))?;
         options.target_max_error_rad = target_max_error_rad;
         let points = point_set(&data, m, d)?;
         if let Some(tolerance_rad) = tolerance_rad {

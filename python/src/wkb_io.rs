@@ -187,19 +187,7 @@ fn count(out: &mut Vec<u8>, n: usize) -> Result<(), String> {
 fn write_node(out: &mut Vec<u8>, code: u32, coords: &Value, dims: usize) -> Result<(), String> {
     header(out, code, dims);
     match code {
-        1 => {
-            let p = array(coords)?;
-            if p.len() != dims {
-                return Err("output positions of mixed dimensions".into());
-            }
-            for x in p {
-                let x = x
-                    .as_f64()
-                    .ok_or("an output coordinate that is not a number")?;
-                out.extend_from_slice(&x.to_le_bytes());
-            }
-            Ok(())
-        }
+        1 => position(out, coords, dims),
         4 => {
             let points = array(coords)?;
             count(out, points.len())?;
@@ -226,17 +214,20 @@ fn write_node(out: &mut Vec<u8>, code: u32, coords: &Value, dims: usize) -> Resu
 fn positions(out: &mut Vec<u8>, coords: &Value, dims: usize) -> Result<(), String> {
     let ps = array(coords)?;
     count(out, ps.len())?;
-    for p in ps {
-        let p = array(p)?;
-        if p.len() != dims {
-            return Err("output positions of mixed dimensions".into());
-        }
-        for x in p {
-            let x = x
-                .as_f64()
-                .ok_or("an output coordinate that is not a number")?;
-            out.extend_from_slice(&x.to_le_bytes());
-        }
+    ps.iter().try_for_each(|p| position(out, p, dims))
+}
+
+/// One position's `dims` numbers.
+fn position(out: &mut Vec<u8>, p: &Value, dims: usize) -> Result<(), String> {
+    let p = array(p)?;
+    if p.len() != dims {
+        return Err("output positions of mixed dimensions".into());
+    }
+    for x in p {
+        let x = x
+            .as_f64()
+            .ok_or("an output coordinate that is not a number")?;
+        out.extend_from_slice(&x.to_le_bytes());
     }
     Ok(())
 }

@@ -127,9 +127,8 @@ pub(crate) fn run(cmd: SphereCommand) -> Result<(), Failure> {
 
 fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
     crate::earth::check_target_max_error_rad(a.target_max_error_rad).map_err(Failure::option)?;
-    if let Some(tolerance_rad) = a.tolerance_rad {
-        crate::earth::check_tolerance("tolerance_rad", tolerance_rad).map_err(Failure::option)?;
-    }
+    crate::sphere::fit::options_check::check_tolerance_fit(a.tolerance_rad, a.control_points)
+        .map_err(|e| Failure::option(e.into()))?;
     let input = PointsInput::from_json(&read_json(a.file.as_ref())?).map_err(Failure::input)?;
     let mut options = FitOptions::default()
         .with_degree(a.degree)

@@ -2,6 +2,7 @@
 //! pointer and a [`Problem`]), with a stable slug per kind ([`Problem::slug`]) that the service's
 //! problem types and the Python exception's `problem` use.
 
+use crate::sphere::fit::options_check::FitOptionError;
 use crate::sphere::SphereError;
 
 /// A GeoJSON input that cannot be processed: a JSON pointer to the offending value
@@ -13,6 +14,28 @@ pub struct EarthError {
     pub pointer: String,
     /// What is wrong there.
     pub problem: Problem,
+}
+
+/// An S^n fit's option error ([`crate::sphere::fit::options_check`]) as the options' problems
+/// are written: with an empty pointer, naming the option.
+impl From<FitOptionError> for EarthError {
+    fn from(e: FitOptionError) -> EarthError {
+        let problem = match e {
+            FitOptionError::Invalid { option, message } => {
+                Problem::InvalidOption { option, message }
+            }
+            FitOptionError::Conflicting {
+                option,
+                other,
+                reason,
+            } => Problem::ConflictingOptions {
+                option,
+                other: other.into(),
+                reason: reason.into(),
+            },
+        };
+        EarthError::new("", problem)
+    }
 }
 
 impl EarthError {
@@ -122,6 +145,10 @@ pub enum Problem {
     /// A spline document (for `evaluate`) that does not describe a valid spline.
     #[error("{0}")]
     InvalidSpline(String),
+    /// An interpolating curve whose control points, rounded to the output precision, no
+    /// longer make a valid curve.
+    #[error("rounding the curve: {0}")]
+    RoundedCurve(#[source] crate::document::InputError),
     /// The math core refused the input for a reason not listed above.
     #[error("{0}")]
     Fit(#[source] SphereError),
@@ -230,7 +257,7 @@ impl Problem {
             | Problem::CountOutOfRange { .. }
             | Problem::RequiresOption { .. } => "invalid-option",
             Problem::ConflictingOptions { .. } => "conflicting-options",
-            Problem::InvalidSpline(_) => "invalid-spline",
+            Problem::InvalidSpline(_) | Problem::RoundedCurve(_) => "invalid-spline",
             Problem::InvalidTime(_) => "invalid-time",
             Problem::Fit(SphereError::Cancelled) => "cancelled",
             Problem::Fit(SphereError::NonFinite { .. }) => "non-finite",

@@ -85,14 +85,7 @@ fn coverage_work(
 ) -> Result<(Vec<u8>, usize, usize), ApiError> {
     let value = parse_json(bytes)?;
     let doc = Document::parse(value, false)?;
-    let (total, over) = doc.curve_positions(config.max_points);
-    if let Some(i) = over {
-        return Err(ApiError::too_many_points(
-            total,
-            config.max_points,
-            doc.slots[i].pointer.clone(),
-        ));
-    }
+    check_positions(&doc, config)?;
     let coverage = crate::earth::topology::fit_coverage(doc, job)?;
     let stats = coverage.stats;
     if stats.curves == 0 {
@@ -120,6 +113,20 @@ fn coverage_work(
     Ok((bytes, stats.input_points, stats.curves))
 }
 
+/// A 413 `too-many-points` for a document whose curves hold more positions than
+/// the server takes, pointing at the first feature past the limit.
+fn check_positions(doc: &Document, config: &ServiceConfig) -> Result<(), ApiError> {
+    let (total, over) = doc.curve_positions(config.max_points);
+    match over {
+        Some(i) => Err(ApiError::too_many_points(
+            total,
+            config.max_points,
+            doc.slots[i].pointer.clone(),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Parses, fits (features in parallel, first error in input order wins) and serialises.
 fn geo_work(
     bytes: &[u8],
@@ -131,14 +138,7 @@ fn geo_work(
     let value = parse_json(bytes)?;
     let doc = Document::parse(value, endpoint == GeoEndpoint::Evaluate)?;
     if endpoint != GeoEndpoint::Evaluate {
-        let (total, over) = doc.curve_positions(config.max_points);
-        if let Some(i) = over {
-            return Err(ApiError::too_many_points(
-                total,
-                config.max_points,
-                doc.slots[i].pointer.clone(),
-            ));
-        }
+        check_positions(&doc, config)?;
     }
     // Output that is known before any work (`samples` per curve) is checked up front; the
     // rest (automatic sampling, spacing_m) is counted as features finish, and the work stops
@@ -261,6 +261,16 @@ fn check_point_count(n: usize, base: &str, config: &ServiceConfig) -> Result<(),
     Ok(())
 }
 
+/// The body of an S^n response made of one curve from `points` input points, with the counts
+/// the metrics take (points, curves).
+fn one_curve(
+    doc: &impl serde::Serialize,
+    points: usize,
+) -> Result<(Vec<u8>, usize, usize), ApiError> {
+    let body = serde_json::to_vec(doc).map_err(|_| ApiError::internal())?;
+    Ok((body, points, 1))
+}
+
 /// The options of `/v1/sphere/fit`, checked against the limits.
 fn sphere_fit_options(
     config: &ServiceConfig,
@@ -301,9 +311,7 @@ pub(super) async fn sphere_fit(req: PostRequest) -> Result<Response, ApiError> {
                     &t,
                 )
                 .map_err(|e| sphere_error(e, base))?;
-                let body = serde_json::to_vec(&tolerance_document(&r))
-                    .map_err(|_| ApiError::internal())?;
-                return Ok((body, input.points.len(), 1));
+                return one_curve(&tolerance_document(&r), input.points.len());
             }
             let mut options = options;
             options.cancel = cancel.clone();
@@ -315,9 +323,7 @@ pub(super) async fn sphere_fit(req: PostRequest) -> Result<Response, ApiError> {
             let report =
                 crate::sphere::fit::fit(&input.points, input.parameters.as_deref(), &options)
                     .map_err(|e| sphere_error(e, base))?;
-            let body = serde_json::to_vec(&FitDocument::from(&report))
-                .map_err(|_| ApiError::internal())?;
-            Ok((body, input.points.len(), 1))
+            one_curve(&FitDocument::from(&report), input.points.len())
         })
         .await?;
     Ok(respond(JSON, out))
@@ -361,9 +367,7 @@ pub(super) async fn sphere_interpolate(req: PostRequest) -> Result<Response, Api
             }
             check_point_count(input.points.len(), base, &config)?;
             let r = interpolate(&input.points, &options).map_err(|e| sphere_error(e, base))?;
-            let body = serde_json::to_vec(&InterpolationDocument::from(&r))
-                .map_err(|_| ApiError::internal())?;
-            Ok((body, input.points.len(), 1))
+            one_curve(&InterpolationDocument::from(&r), input.points.len())
         })
         .await?;
     Ok(respond(JSON, out))

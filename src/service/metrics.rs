@@ -159,37 +159,39 @@ impl Metrics {
                 esc(problem)
             );
         }
-        out.push_str("# HELP spherefit_http_request_duration_seconds Request durations by route.\n# TYPE spherefit_http_request_duration_seconds histogram\n");
-        for (route, h) in lock(&self.request_duration).iter() {
-            h.render(
-                &mut out,
+        for (name, help, by_route) in [
+            (
                 "spherefit_http_request_duration_seconds",
-                &format!("route=\"{}\"", esc(route)),
-            );
-        }
-        out.push_str("# HELP spherefit_fit_duration_seconds CPU work (fitting, interpolation, evaluation) per request, by route.\n# TYPE spherefit_fit_duration_seconds histogram\n");
-        for (route, h) in lock(&self.fit_duration).iter() {
-            h.render(
-                &mut out,
+                "Request durations by route.",
+                &self.request_duration,
+            ),
+            (
                 "spherefit_fit_duration_seconds",
-                &format!("route=\"{}\"", esc(route)),
-            );
+                "CPU work (fitting, interpolation, evaluation) per request, by route.",
+                &self.fit_duration,
+            ),
+        ] {
+            let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} histogram");
+            for (route, h) in lock(by_route).iter() {
+                h.render(&mut out, name, &format!("route=\"{}\"", esc(route)));
+            }
         }
-        out.push_str("# HELP spherefit_points_fitted_total Input points processed, by route.\n# TYPE spherefit_points_fitted_total counter\n");
-        for (route, n) in lock(&self.points).iter() {
-            let _ = writeln!(
-                out,
-                "spherefit_points_fitted_total{{route=\"{}\"}} {n}",
-                esc(route)
-            );
-        }
-        out.push_str("# HELP spherefit_curves_total Curves fitted, interpolated or evaluated, by route.\n# TYPE spherefit_curves_total counter\n");
-        for (route, n) in lock(&self.curves).iter() {
-            let _ = writeln!(
-                out,
-                "spherefit_curves_total{{route=\"{}\"}} {n}",
-                esc(route)
-            );
+        for (name, help, by_route) in [
+            (
+                "spherefit_points_fitted_total",
+                "Input points processed, by route.",
+                &self.points,
+            ),
+            (
+                "spherefit_curves_total",
+                "Curves fitted, interpolated or evaluated, by route.",
+                &self.curves,
+            ),
+        ] {
+            let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} counter");
+            for (route, n) in lock(by_route).iter() {
+                let _ = writeln!(out, "{name}{{route=\"{}\"}} {n}", esc(route));
+            }
         }
         let _ = write!(
             out,

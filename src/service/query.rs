@@ -113,17 +113,7 @@ pub fn parse_number(s: &str) -> Option<f64> {
 }
 
 /// Parameters of `/v1/sphere/fit`.
-pub const SPHERE_FIT_PARAMS: &[&str] = &[
-    "control_points",
-    "degree",
-    "knots",
-    "iterations",
-    "parameterization",
-    "solver",
-    "parameter_correction",
-    "target_max_error_rad",
-    "tolerance_rad",
-];
+pub const SPHERE_FIT_PARAMS: &[&str] = &crate::sphere::fit::options_check::SPHERE_FIT_OPTIONS;
 /// Parameters of `/v1/sphere/evaluate`.
 pub const SPHERE_EVALUATE_PARAMS: &[&str] = &["samples", "at"];
 /// Parameters of `/v1/sphere/interpolate`.
@@ -161,17 +151,16 @@ pub fn fit_options(p: &Params, base: FitOptions) -> Result<FitOptions, ApiError>
 }
 
 /// `tolerance_rad` of `/v1/sphere/fit`, if given, checked by
-/// [`crate::earth::check_sphere_tolerance`].
+/// [`crate::sphere::fit::options_check::check_tolerance_fit`].
 ///
 /// # Errors
 /// 400 when it does not parse; 422 when it is not a positive number or comes with
 /// `control_points`.
 pub fn sphere_tolerance(p: &Params) -> Result<Option<f64>, ApiError> {
     let t = p.num("tolerance_rad")?;
-    Ok(crate::earth::check_sphere_tolerance(
-        t,
-        p.int("control_points")?,
-    )?)
+    let checked =
+        crate::sphere::fit::options_check::check_tolerance_fit(t, p.int("control_points")?);
+    Ok(checked.map_err(crate::earth::EarthError::from)?)
 }
 
 /// The Earth job of a geo endpoint: the query read into [`RawOptions`] and checked by
@@ -234,27 +223,32 @@ mod tests {
             .collect()
     }
 
+    /// The status and the parameter named of a query `endpoint` refuses.
+    fn refused(q: &[(&str, &str)], endpoint: GeoEndpoint) -> (u16, Option<String>) {
+        let e = geo_job(pairs(q), endpoint, &Limits::default()).unwrap_err();
+        (e.status.as_u16(), e.parameter)
+    }
+
+    fn named(status: u16, parameter: &str) -> (u16, Option<String>) {
+        (status, Some(parameter.to_string()))
+    }
+
     #[test]
     fn unknown_repeated_and_unparsable_parameters_are_400() {
-        let l = Limits::default();
-        let e = geo_job(pairs(&[("foo", "1")]), GeoEndpoint::Fit, &l).unwrap_err();
-        assert_eq!(
-            (e.status.as_u16(), e.parameter.as_deref()),
-            (400, Some("foo"))
-        );
-        let e = geo_job(
-            pairs(&[("degree", "2"), ("degree", "3")]),
-            GeoEndpoint::Fit,
-            &l,
-        )
-        .unwrap_err();
-        assert_eq!(e.status.as_u16(), 400);
-        let e = geo_job(pairs(&[("samples", "ten")]), GeoEndpoint::Fit, &l).unwrap_err();
-        assert_eq!(e.parameter.as_deref(), Some("samples"));
+        let fit = GeoEndpoint::Fit;
+        assert_eq!(refused(&[("foo", "1")], fit), named(400, "foo"));
+        assert_eq!(refused(&[("degree", "2"), ("degree", "3")], fit).0, 400);
+        assert_eq!(refused(&[("samples", "ten")], fit), named(400, "samples"));
+        for bad in ["NaN", "inf", "+1", " 1", "1e", "--1", "."] {
+            assert_eq!(refused(&[("spacing_m", bad)], fit).0, 400, "{bad}");
+        }
+        assert_eq!(parse_number("-1.5e-3"), Some(-1.5e-3));
+        assert_eq!(parse_number("1e+20"), Some(1e20));
+        assert_eq!(parse_number("5."), Some(5.0));
         let both = geo_job(
             pairs(&[("samples", "10"), ("spacing_m", "5")]),
             GeoEndpoint::Evaluate,
-            &l,
+            &Limits::default(),
         )
         .unwrap();
         assert_eq!(
@@ -266,31 +260,22 @@ mod tests {
         );
     }
 
+    /// Ranges are `into_job`'s (tested there): the query answers them with a 422 naming the
+    /// option.
     #[test]
     fn out_of_range_values_are_422() {
-        let l = Limits::default();
-        for (k, v) in [
-            ("degree", "9"),
-            ("control_points", "2"),
-            ("samples", "1"),
-            ("precision", "16"),
-            ("iterations", "100000"),
-        ] {
-            let e = geo_job(pairs(&[(k, v)]), GeoEndpoint::Fit, &l).unwrap_err();
-            assert_eq!(e.status.as_u16(), 422, "{k}={v}");
-            assert_eq!(e.parameter.as_deref(), Some(k));
-        }
-        let e = geo_job(pairs(&[("spacing_m", "0")]), GeoEndpoint::Fit, &l).unwrap_err();
-        assert_eq!(e.status.as_u16(), 422);
-        for bad in ["NaN", "inf", "+1", " 1", "1e", "--1", "."] {
-            let e = geo_job(pairs(&[("spacing_m", bad)]), GeoEndpoint::Fit, &l).unwrap_err();
-            assert_eq!(e.status.as_u16(), 400, "{bad}");
-        }
-        assert_eq!(parse_number("-1.5e-3"), Some(-1.5e-3));
-        assert_eq!(parse_number("1e+20"), Some(1e20));
-        assert_eq!(parse_number("5."), Some(5.0));
-        let e = geo_job(pairs(&[("beta1", "0")]), GeoEndpoint::Interpolate, &l).unwrap_err();
-        assert_eq!(e.parameter.as_deref(), Some("beta1"));
+        assert_eq!(
+            refused(&[("degree", "9")], GeoEndpoint::Fit),
+            named(422, "degree")
+        );
+        assert_eq!(
+            refused(&[("samples", "1")], GeoEndpoint::Fit),
+            named(422, "samples")
+        );
+        assert_eq!(
+            refused(&[("beta1", "0")], GeoEndpoint::Interpolate),
+            named(422, "beta1")
+        );
     }
 
     #[test]
@@ -300,62 +285,32 @@ mod tests {
         assert_eq!(job.output, OutputOptions::default());
     }
 
+    /// Which options go together is `into_job`'s business, tested there: the query only
+    /// reads the parameters and answers its refusals with a 422 naming the option.
     #[test]
-    fn time_options_are_read_and_implied() {
-        let l = Limits::default();
-        let job = geo_job(pairs(&[("parameterization", "time")]), GeoEndpoint::Fit, &l).unwrap();
-        assert_eq!(job.time.fit_in_time, Some(TimeSource::Auto));
-        // parameterization=time is not a math-core parameterisation: the fit options keep theirs.
-        assert_eq!(
-            job.operation.fit_options().unwrap().parameterization,
-            FitOptions::faithful().parameterization
-        );
-        let job = geo_job(pairs(&[("time_property", "when")]), GeoEndpoint::Fit, &l).unwrap();
+    fn rules_between_options_come_back_as_422_naming_the_option() {
+        let job = geo_job(
+            pairs(&[("time_property", "when")]),
+            GeoEndpoint::Fit,
+            &Limits::default(),
+        )
+        .unwrap();
         assert_eq!(
             job.time.fit_in_time,
             Some(TimeSource::Property("when".into()))
         );
-        let job = geo_job(pairs(&[("spacing_s", "30")]), GeoEndpoint::Fit, &l).unwrap();
         assert_eq!(
-            (job.time.fit_in_time, job.output.sampling),
-            (Some(TimeSource::Auto), Sampling::SpacingS(30.0))
+            refused(
+                &[("parameterization", "chord"), ("spacing_s", "30")],
+                GeoEndpoint::Fit
+            ),
+            named(422, "spacing_s")
         );
-        let e = geo_job(
-            pairs(&[("parameterization", "chord"), ("spacing_s", "30")]),
-            GeoEndpoint::Fit,
-            &l,
-        )
-        .unwrap_err();
         assert_eq!(
-            (e.status.as_u16(), e.parameter.as_deref()),
-            (422, Some("spacing_s"))
+            refused(&[("at", "1")], GeoEndpoint::Fit).0,
+            400,
+            "at is not a fit parameter"
         );
-        let e = geo_job(
-            pairs(&[("spacing_s", "30"), ("samples", "10")]),
-            GeoEndpoint::Evaluate,
-            &l,
-        )
-        .unwrap_err();
-        assert_eq!(e.status.as_u16(), 422);
-        let job = geo_job(
-            pairs(&[("at", "1,2010-10-03T09:36:30Z")]),
-            GeoEndpoint::Evaluate,
-            &l,
-        )
-        .unwrap();
-        assert_eq!(job.time.at_unix_s, Some(vec![1.0, 1286098590.0]));
-        let e = geo_job(pairs(&[("at", "1,,2")]), GeoEndpoint::Evaluate, &l).unwrap_err();
-        assert_eq!(
-            (e.status.as_u16(), e.parameter.as_deref()),
-            (422, Some("at"))
-        );
-        let e = geo_job(pairs(&[("spacing_s", "0")]), GeoEndpoint::Evaluate, &l).unwrap_err();
-        assert_eq!(
-            (e.status.as_u16(), e.parameter.as_deref()),
-            (422, Some("spacing_s"))
-        );
-        let e = geo_job(pairs(&[("at", "1")]), GeoEndpoint::Fit, &l).unwrap_err();
-        assert_eq!(e.status.as_u16(), 400, "at is not a fit parameter");
         // The S^n fit knows no time.
         let p = Params::new(pairs(&[("parameterization", "time")]), SPHERE_FIT_PARAMS).unwrap();
         assert!(fit_options(&p, FitOptions::default()).is_err());

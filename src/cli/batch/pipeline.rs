@@ -379,6 +379,7 @@ enum Done {
 }
 
 /// Everything [`run`] needs besides the inputs.
+#[derive(Clone)]
 pub struct Settings {
     pub job: Arc<Job>,
     pub allow_spline: bool,
@@ -413,24 +414,10 @@ pub fn run<W: Write>(
     let (tx, rx) = mpsc::channel::<(u64, Done)>();
     let reader = {
         let window = window.clone();
-        let job = settings.job.clone();
-        let names = settings.names.clone();
-        let allow_spline = settings.allow_spline;
-        let forced = settings.input_format;
+        let settings = settings.clone();
         std::thread::Builder::new()
             .name("spherefit-reader".into())
-            .spawn(move || {
-                read_all(
-                    first,
-                    rest,
-                    forced,
-                    &window,
-                    &tx,
-                    &job,
-                    &names,
-                    allow_spline,
-                )
-            })
+            .spawn(move || read_all(first, rest, &settings, &window, &tx))
     };
     let reader = match reader {
         Ok(r) => r,
@@ -550,17 +537,20 @@ fn output_error(e: io::Error, totals: &mut Totals) -> Option<Fatal> {
 }
 
 /// The reader thread: opens the inputs in turn and hands every unit to the pool.
-#[allow(clippy::too_many_arguments)]
 fn read_all(
     first: Opened,
     rest: Vec<(usize, Input)>,
-    forced: Format,
+    settings: &Settings,
     window: &Arc<Window>,
     tx: &mpsc::Sender<(u64, Done)>,
-    job: &Arc<Job>,
-    names: &Arc<Vec<String>>,
-    allow_spline: bool,
 ) -> Result<(), ReadError> {
+    let Settings {
+        job,
+        allow_spline,
+        names,
+        input_format: forced,
+    } = settings;
+    let (allow_spline, forced) = (*allow_spline, *forced);
     let mut n = 0u64;
     let mut emit = |unit: Unit, read: u64, base: u64| -> Result<(), ()> {
         let bytes = match &unit {

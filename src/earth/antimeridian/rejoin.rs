@@ -300,15 +300,19 @@ mod tests {
     use super::*;
     use serde_json::json;
 
-    fn run(coords: Value) -> Option<Vec<Vec<Value>>> {
-        let polys: Vec<(String, &Value)> = coords
+    /// The polygons of a MultiPolygon's coordinates with their pointers.
+    fn polygons(coords: &Value) -> Vec<(String, &Value)> {
+        coords
             .as_array()
             .unwrap()
             .iter()
             .enumerate()
             .map(|(i, p)| (format!("/coordinates/{i}"), p))
-            .collect();
-        rejoin_cut_polygons(&polys).map(|v| {
+            .collect()
+    }
+
+    fn run(coords: Value) -> Option<Vec<Vec<Value>>> {
+        rejoin_cut_polygons(&polygons(&coords)).map(|v| {
             v.expect("a ring with area")
                 .into_iter()
                 .map(|p| p.rings.into_iter().map(|(_, r)| r).collect())
@@ -317,14 +321,7 @@ mod tests {
     }
 
     fn no_area(coords: Value) -> Option<String> {
-        let polys: Vec<(String, &Value)> = coords
-            .as_array()
-            .unwrap()
-            .iter()
-            .enumerate()
-            .map(|(i, p)| (format!("/coordinates/{i}"), p))
-            .collect();
-        rejoin_cut_polygons(&polys).and_then(Result::err)
+        rejoin_cut_polygons(&polygons(&coords)).and_then(Result::err)
     }
 
     #[test]

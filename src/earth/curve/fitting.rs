@@ -55,19 +55,16 @@ pub const DENSIFY_MAX_FACTOR: usize = 4;
 /// Invalid positions or times, an open or short ring, fewer than 2 distinct positions,
 /// antipodal neighbours, more control points than distinct positions, or output over the
 /// limits.
-#[allow(clippy::too_many_arguments)]
 pub fn fit_line(
-    coords: &Value,
-    pointer: &str,
-    path: Vec<usize>,
-    closed: bool,
+    src: LineRef<'_>,
     options: &FitOptions,
-    output: &OutputOptions,
-    limits: &Limits,
     time: Option<&LineTimeInput<'_>>,
+    out: OutputSpec<'_>,
 ) -> Result<CurveOutput, EarthError> {
-    let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
-    let closed = fits_closed(closed, &distinct, timed.as_ref());
+    let (output, limits, pointer) = (out.output, out.limits, src.pointer);
+    let (line, distinct, timed) = prepare_line(src.value, pointer, src.closed, time)?;
+    let closed = fits_closed(src.closed, &distinct, timed.as_ref());
+    let src = LineRef { closed, ..src };
     let given = timed.as_ref().map(|t| t.params.as_slice());
     let m = distinct.len();
     let degree = options.degree.min(m - 1);
@@ -239,9 +236,12 @@ pub fn fit_line(
     let (spline, control_ll, params, iterations, converged, tw, _, _, solver) = m_best;
     let (mut out, _) = finish_fit(
         Fitted {
-            line: &line,
-            distinct: &distinct,
-            points: &points,
+            input: Prepared {
+                line: &line,
+                distinct: &distinct,
+                points: &points,
+                time: timed.as_ref(),
+            },
             spline,
             control_ll,
             params,
@@ -250,13 +250,9 @@ pub fn fit_line(
             knots: serde_json::to_value(options.knots).expect("enum serialises"),
             parameterization: options.parameterization,
             sampling_aim_rad: None,
-            time: timed.as_ref(),
         },
-        pointer,
-        path,
-        closed,
-        output,
-        limits,
+        src,
+        out,
     )?;
     let f = &mut out.report.fields;
     f.insert(
@@ -276,11 +272,19 @@ pub fn fit_line(
     Ok(out)
 }
 
-/// A fitted curve (control points already rounded) and what it was fitted to.
-pub(super) struct Fitted<'a> {
+/// A line as read for a fit: its positions, the distinct ones (also as unit vectors) and, for a
+/// fit in time, its times.
+#[derive(Clone, Copy)]
+pub(super) struct Prepared<'a> {
     line: &'a LinePositions,
     distinct: &'a DistinctPositions,
     points: &'a PointSet,
+    time: Option<&'a Timed>,
+}
+
+/// A fitted curve (control points already rounded) and what it was fitted to.
+pub(super) struct Fitted<'a> {
+    input: Prepared<'a>,
     spline: SphericalBSpline,
     control_ll: Vec<[f64; 2]>,
     params: Vec<f64>,
@@ -290,24 +294,24 @@ pub(super) struct Fitted<'a> {
     parameterization: crate::sphere::Parameterization,
     /// What automatic dense sampling aims for; by default a share of the max error.
     sampling_aim_rad: Option<f64>,
-    /// The line's times, for a fit in time.
-    time: Option<&'a Timed>,
 }
 
 /// Measures a fitted curve as returned, samples it and writes its `properties.fit` fields.
 /// Also returns the max error in radians.
 pub(super) fn finish_fit(
     f: Fitted<'_>,
-    pointer: &str,
-    path: Vec<usize>,
-    closed: bool,
-    output: &OutputOptions,
-    limits: &Limits,
+    src: LineRef<'_>,
+    out: OutputSpec<'_>,
 ) -> Result<(CurveOutput, f64), EarthError> {
+    let (pointer, closed) = (src.pointer, src.closed);
     let Fitted {
-        line,
-        distinct,
-        points,
+        input:
+            Prepared {
+                line,
+                distinct,
+                points,
+                time,
+            },
         spline,
         control_ll,
         params,
@@ -316,25 +320,23 @@ pub(super) fn finish_fit(
         knots,
         parameterization,
         sampling_aim_rad,
-        time,
     } = f;
     let control_points = spline.control_points().len();
     // Errors of the spline as returned, each distinct position counted once per input copy.
     let errs = pointwise_errors(&spline, points, &params);
-    let (mut max_rad, mut sum_rad, mut sq_rad) = (0.0f64, 0.0, 0.0);
-    for (e, &k) in errs.iter().zip(&distinct.multiplicity) {
-        max_rad = max_rad.max(*e);
-        sum_rad += e * k as f64;
-        sq_rad += e * e * k as f64;
-    }
+    let errors = ErrorSums::of(errs.into_iter().zip(distinct.multiplicity.iter().copied()));
+    let ErrorSums {
+        max_rad,
+        sum_rad,
+        sq_rad,
+    } = errors;
     let n_in = line.points.len();
     let dense = sample_curve(
         &spline,
-        output,
+        out,
         closed,
         sampling_aim_rad.unwrap_or_else(|| auto_tolerance_rad(max_rad)),
         sampling_start(control_points),
-        limits,
         time.map(|t| &t.map),
     )
     .map_err(|e| EarthError::new(pointer, e.problem))?;
@@ -387,16 +389,10 @@ pub(super) fn finish_fit(
             pointer: pointer.to_string(),
             has_alt: line.alts.is_some(),
             report: CurveReport {
-                path,
-                closed,
-                fields,
                 spline: Some(spline_doc),
-                input_points: n_in,
                 output_points: points_out.len(),
                 stored_numbers: bspline_stored_numbers(&spline),
-                max_error_m: rad_to_m(max_rad),
-                error_sum_m: rad_to_m(sum_rad),
-                error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
+                ..CurveReport::of_line(src, fields, n_in, errors)
             },
             points: points_out,
             alts,
@@ -417,9 +413,10 @@ pub fn rounding_bound_rad(precision: u32) -> f64 {
 ///
 /// The fitter aims at the tolerance minus 1.5 times [`rounding_bound_rad`] so that the curve
 /// still meets it once its control points are rounded to `precision`; the errors are then
-/// measured on the rounded curve, and `tolerance_met` is true only when that max error (and
-/// its value rounded to millimetres) is within the tolerance. When rounding pushes a fit that
-/// met its target over the tolerance, it is refitted once with a target lowered by the excess.
+/// measured on the rounded curve, and `tolerance_met` is [`ToleranceRule::met`]. When
+/// rounding pushes a fit that met its target over the tolerance, it is refitted once with a
+/// target lowered by the excess ([`ToleranceRule::retry_target_rad`]); a coverage's arcs are
+/// judged and retried by the same rule.
 ///
 /// A ring (or a LineString whose last position repeats its first) is fitted as an open line
 /// through its positions (first = last) and then closed by pinning the end control points
@@ -433,28 +430,31 @@ pub fn rounding_bound_rad(precision: u32) -> f64 {
 ///
 /// # Errors
 /// As [`fit_line`].
-#[allow(clippy::too_many_arguments)]
 pub fn fit_line_to_tolerance(
-    coords: &Value,
-    pointer: &str,
-    path: Vec<usize>,
-    closed: bool,
+    src: LineRef<'_>,
     options: &FitOptions,
     tolerance_m: f64,
-    output: &OutputOptions,
-    limits: &Limits,
     time: Option<&LineTimeInput<'_>>,
+    out: OutputSpec<'_>,
 ) -> Result<CurveOutput, EarthError> {
-    let (line, distinct, timed) = prepare_line(coords, pointer, closed, time)?;
-    let closed = fits_closed(closed, &distinct, timed.as_ref());
+    let (output, pointer) = (out.output, src.pointer);
+    let (line, distinct, timed) = prepare_line(src.value, pointer, src.closed, time)?;
+    let closed = fits_closed(src.closed, &distinct, timed.as_ref());
+    let src = LineRef { closed, ..src };
     let given = timed.as_ref().map(|t| t.params.as_slice());
     let points = distinct.point_set();
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
-    let tol_rad = m_to_rad(tolerance_m);
-    let bound = rounding_bound_rad(output.precision);
+    let rule = ToleranceRule::new(tolerance_m, output.precision);
+    let tol_rad = rule.tol_rad;
     // The dense output adds its deviation to the curve's distance from the line.
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
-    let mut target = tolerance_target_rad(tol_rad, output.precision);
+    let mut target = rule.first_target_rad();
+    let input = Prepared {
+        line: &line,
+        distinct: &distinct,
+        points: &points,
+        time: timed.as_ref(),
+    };
     // No control-point cap below the input's own size here: a long line at a small tolerance
     // may need nearly a control point per position, and the input limits already bound that.
     let mut topts = ToleranceOptions {
@@ -506,9 +506,7 @@ pub fn fit_line_to_tolerance(
         let knot_rule = serde_json::to_value(r.knot_rule).expect("enum serialises");
         let (mut out, max_rad) = finish_fit(
             Fitted {
-                line: &line,
-                distinct: &distinct,
-                points: &points,
+                input,
                 spline,
                 control_ll,
                 params: r.parameters,
@@ -519,27 +517,18 @@ pub fn fit_line_to_tolerance(
                 // The margin the fit left for the dense output, so the returned geometry
                 // stays within the tolerance too.
                 sampling_aim_rad: Some(dense_margin),
-                time: timed.as_ref(),
             },
-            pointer,
-            path.clone(),
-            closed,
-            output,
-            limits,
+            src,
+            out,
         )?;
         let worst = max_rad.max(tw.upper_rad);
-        let met = worst <= tol_rad
-            && round_m(rad_to_m(worst)) <= tolerance_m
-            && tw.curve_length_rad <= MAX_LENGTH_RATIO * input_len + tol_rad;
-        if !met && r.tolerance_met && attempt == 0 && worst > tol_rad {
-            // Rounding (or closing the ring) took a fit that met its target over the
-            // tolerance: aim lower by the excess, once.
-            let lower = target - 2.0 * (worst - tol_rad) - bound;
-            if lower > 0.25 * tol_rad {
-                target = lower;
-                attempt += 1;
-                continue;
-            }
+        let met = rule.met(worst, tw.curve_length_rad, input_len);
+        // Rounding (or closing the ring) took a fit that met its target over the tolerance:
+        // aim lower by the excess, once.
+        if let Some(lower) = rule.retry_target_rad(target, worst, r.tolerance_met, attempt) {
+            target = lower;
+            attempt += 1;
+            continue;
         }
         let n_in = line.points.len();
         let f = &mut out.report.fields;

@@ -12,38 +12,31 @@ pub const INTERPOLATION_DEVIATION_FRACTION: f64 = 0.005;
 /// # Errors
 /// As [`fit_line`], plus [`Problem::Interpolation`] when the shape parameters cannot be met.
 pub fn interpolate_line(
-    coords: &Value,
-    pointer: &str,
-    path: Vec<usize>,
-    closed: bool,
+    src: LineRef<'_>,
     settings: &InterpolateSettings,
-    output: &OutputOptions,
-    limits: &Limits,
+    out: OutputSpec<'_>,
 ) -> Result<CurveOutput, EarthError> {
-    let (line, distinct, _) = prepare_line(coords, pointer, closed, None)?;
+    let (output, limits) = (out.output, out.limits);
+    let (pointer, closed) = (src.pointer, src.closed);
+    let (line, distinct, _) = prepare_line(src.value, pointer, closed, None)?;
     let points = distinct.point_set();
     let opts = InterpolationOptions::default()
         .with_beta1(settings.beta1)
         .with_beta2(settings.beta2);
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
     let r = interpolate(&points, &opts).map_err(fit_err)?;
-    let (curve, doc) = round_beta(&r.spline, output.precision).map_err(|e| {
-        EarthError::new(
-            pointer,
-            Problem::InvalidSpline(format!("rounding the curve: {e}")),
-        )
-    })?;
+    let (curve, doc) = round_beta(&r.spline, output.precision)
+        .map_err(|e| EarthError::new(pointer, Problem::RoundedCurve(e)))?;
     // Distance from each input position to the rounded curve at its parameter j.
     let params: Vec<f64> = (0..distinct.len()).map(|j| j as f64).collect();
     let at = curve.evaluate_many(&params);
-    let (mut max_rad, mut sum_rad, mut sq_rad) = (0.0f64, 0.0, 0.0);
-    for (j, c) in at.iter().enumerate() {
-        let e = angle_between(&distinct.points[j], c);
-        let k = distinct.multiplicity[j] as f64;
-        max_rad = max_rad.max(e);
-        sum_rad += e * k;
-        sq_rad += e * e * k;
-    }
+    let errors = ErrorSums::of(at.iter().enumerate().map(|(j, c)| {
+        (
+            angle_between(&distinct.points[j], c),
+            distinct.multiplicity[j],
+        )
+    }));
+    let max_rad = errors.max_rad;
     let n_in = line.points.len();
     let segments = distinct.len() - 1;
     // No fit error to stay below here: automatic sampling keeps within a small share of the
@@ -77,16 +70,9 @@ pub fn interpolate_line(
         pointer: pointer.to_string(),
         has_alt: line.alts.is_some(),
         report: CurveReport {
-            path,
-            closed,
-            fields,
-            spline: None,
-            input_points: n_in,
             output_points: points_out.len(),
             stored_numbers: curve.stored_numbers(),
-            max_error_m: rad_to_m(max_rad),
-            error_sum_m: rad_to_m(sum_rad),
-            error_sq_sum_m2: rad_to_m(rad_to_m(sq_rad)),
+            ..CurveReport::of_line(src, fields, n_in, errors)
         },
         points: points_out,
         alts,

@@ -34,17 +34,21 @@ use serde_json::{json, Map, Value};
 
 mod fitting;
 mod interpolation;
+mod line;
 mod output;
 mod positions;
 mod stored;
 mod times;
+mod tolerance_rule;
 
 pub use fitting::*;
 pub use interpolation::*;
+pub use line::*;
 pub use output::*;
 pub use positions::*;
 pub use stored::*;
 pub use times::*;
+pub use tolerance_rule::*;
 
 #[cfg(test)]
 mod tests {
@@ -67,16 +71,17 @@ mod tests {
         closed: bool,
         options: &FitOptions,
     ) -> Result<CurveOutput, EarthError> {
-        fit_line(
-            coords,
+        let src = LineRef {
+            value: coords,
             pointer,
-            path,
+            path: &path,
             closed,
-            options,
-            &OutputOptions::default(),
-            &Limits::default(),
-            None,
-        )
+        };
+        let out = OutputSpec {
+            output: &OutputOptions::default(),
+            limits: &Limits::default(),
+        };
+        fit_line(src, options, None, out)
     }
 
     #[test]

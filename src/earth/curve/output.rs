@@ -75,13 +75,13 @@ pub fn auto_tolerance_rad(max_error_rad: f64) -> f64 {
 /// Samples a curve densely as the output options say; `spacing_s` needs the curve's times.
 pub(super) fn sample_curve(
     curve: &dyn crate::sphere::SphericalCurve,
-    output: &OutputOptions,
+    out: OutputSpec<'_>,
     closed: bool,
     auto_tolerance_rad: f64,
     start: usize,
-    limits: &Limits,
     time: Option<&TimeMap>,
 ) -> Result<DenseCurve, EarthError> {
+    let (output, limits) = (out.output, out.limits);
     match (output.sampling, time) {
         (Sampling::SpacingS(s), Some(map)) => Ok(sample_at(
             curve,

@@ -276,8 +276,8 @@ pub(crate) fn prepare_line(
 ) -> Result<(LinePositions, DistinctPositions, Option<Timed>), EarthError> {
     let line = parse_positions_with(coords, pointer, matches!(time, Some(LineTimeInput::M)))?;
     if let Some(input) = time {
+        // Checked by timed_line (before its times are mapped).
         let (distinct, timed) = timed_line(&line, pointer, input)?;
-        distinct.check_curve(pointer)?;
         return Ok((line, distinct, Some(timed)));
     }
     if closed {

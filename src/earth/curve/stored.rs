@@ -81,17 +81,13 @@ pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, Eart
 /// `time` is the stored `time` of a fit in time and its pointer: the dense points then carry
 /// their times (an evaluated line has no altitudes, so the times of a track whose times were
 /// its 4th coordinate go to the property `times`, in unix seconds), and `spacing_s` applies.
-#[allow(clippy::too_many_arguments)]
 pub fn evaluate_curve(
-    doc: &Value,
-    pointer: &str,
-    path: Vec<usize>,
-    closed: bool,
+    src: LineRef<'_>,
     known_error_m: Option<f64>,
-    output: &OutputOptions,
-    limits: &Limits,
     time: Option<(&Value, &str)>,
+    out: OutputSpec<'_>,
 ) -> Result<CurveOutput, EarthError> {
+    let (doc, pointer, closed) = (src.value, src.pointer, src.closed);
     let curve = curve_from_lonlat_json(doc, pointer)?;
     let time = time.map(|(v, p)| TimeMap::from_json(v, p)).transpose()?;
     let (start, stored) = match &curve {
@@ -107,11 +103,10 @@ pub fn evaluate_curve(
     let tol = auto_tolerance_rad(m_to_rad(known_error_m.unwrap_or(0.0).max(0.0)));
     let dense = sample_curve(
         &curve,
-        output,
+        out,
         closed,
         tol,
         start,
-        limits,
         time.as_ref().map(|(m, _)| m),
     )
     .map_err(|e| EarthError::new(pointer, e.problem))?;
@@ -134,16 +129,9 @@ pub fn evaluate_curve(
         pointer: pointer.to_string(),
         has_alt: false,
         report: CurveReport {
-            path,
-            closed,
-            fields,
-            spline: None,
-            input_points: 0,
             output_points: points.len(),
             stored_numbers: stored,
-            max_error_m: 0.0,
-            error_sum_m: 0.0,
-            error_sq_sum_m2: 0.0,
+            ..CurveReport::of_line(src, fields, 0, ErrorSums::default())
         },
         points,
         alts,

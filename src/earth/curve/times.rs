@@ -77,15 +77,7 @@ pub(super) fn timed_line(
         angle_between(&line.points[i - 1], &line.points[i]) <= REPEAT_ANGLE_RAD
     })?;
     let distinct = DistinctPositions::from_line_timed(line, &duplicate);
-    if distinct.len() < 2 {
-        return Err(EarthError::new(
-            pointer,
-            Problem::TooFewPoints {
-                distinct: distinct.len(),
-                need: 2,
-            },
-        ));
-    }
+    distinct.check_curve(pointer)?;
     let kept: Vec<f64> = distinct
         .input_index
         .iter()

@@ -11,6 +11,7 @@ pub mod gls_pia;
 mod jacobian;
 pub mod knots;
 pub mod metrics;
+pub mod options_check;
 pub(crate) mod pass;
 pub mod seam;
 

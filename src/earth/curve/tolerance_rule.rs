@@ -1,0 +1,113 @@
+//! How a tolerance fit's curve is judged and retried, decided once for a line or ring fitted on
+//! its own ([`fit_line_to_tolerance`]) and for an arc of a coverage (`topology=shared`).
+
+use super::*;
+
+/// A tolerance in metres that a curve as returned (control points rounded to `precision`,
+/// rings closed) must meet: its max error at the positions and its two-way distance from the
+/// line within the tolerance (also once rounded to millimetres, as reported), and the curve at
+/// most [`MAX_LENGTH_RATIO`] times as long as the line (plus the tolerance), as the fitter of
+/// [`crate::sphere::compress::tolerance`] asks of itself.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToleranceRule {
+    /// The tolerance, metres.
+    pub tolerance_m: f64,
+    /// The tolerance, radians.
+    pub tol_rad: f64,
+    /// Decimals of a degree the control points are rounded to.
+    pub precision: u32,
+}
+
+impl ToleranceRule {
+    /// The rule for `tolerance_m` at `precision`.
+    pub fn new(tolerance_m: f64, precision: u32) -> ToleranceRule {
+        ToleranceRule {
+            tolerance_m,
+            tol_rad: m_to_rad(tolerance_m),
+            precision,
+        }
+    }
+
+    /// Half the tolerance (exactly, in metres and radians): a refit of a curve that crosses
+    /// another.
+    pub fn halved(self) -> ToleranceRule {
+        ToleranceRule {
+            tolerance_m: 0.5 * self.tolerance_m,
+            tol_rad: 0.5 * self.tol_rad,
+            ..self
+        }
+    }
+
+    /// What the fitter aims at first: below the tolerance by the rounding of the control
+    /// points and by the dense output's margin, where that leaves room.
+    pub fn first_target_rad(&self) -> f64 {
+        tolerance_target_rad(self.tol_rad, self.precision)
+    }
+
+    /// Whether a curve as returned meets the tolerance: `worst_rad` is the larger of its max
+    /// error at the positions and its two-way distance from the line, `curve_length_rad` and
+    /// `line_length_rad` the lengths of the curve and of the line.
+    pub fn met(&self, worst_rad: f64, curve_length_rad: f64, line_length_rad: f64) -> bool {
+        worst_rad <= self.tol_rad
+            && round_m(rad_to_m(worst_rad)) <= self.tolerance_m
+            && curve_length_rad <= MAX_LENGTH_RATIO * line_length_rad + self.tol_rad
+    }
+
+    /// The one retry: when the fitter met its `target_rad` (`fitter_met`) but rounding (or
+    /// closing a ring) took the curve as returned over the tolerance (`worst_rad`) on the
+    /// first `attempt`, the fit is run again aiming lower by twice the excess and the rounding
+    /// bound, unless that leaves less than a quarter of the tolerance.
+    pub fn retry_target_rad(
+        &self,
+        target_rad: f64,
+        worst_rad: f64,
+        fitter_met: bool,
+        attempt: usize,
+    ) -> Option<f64> {
+        if !(fitter_met && attempt == 0 && worst_rad > self.tol_rad) {
+            return None;
+        }
+        let lower =
+            target_rad - 2.0 * (worst_rad - self.tol_rad) - rounding_bound_rad(self.precision);
+        (lower > 0.25 * self.tol_rad).then_some(lower)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn met_needs_the_distance_its_millimetres_and_the_length_within_the_tolerance() {
+        let rule = ToleranceRule::new(100.0, 7);
+        let m = |x: f64| m_to_rad(x);
+        assert!(rule.met(m(99.0), 1.0, 1.0));
+        assert!(!rule.met(m(100.01), 1.0, 1.0));
+        // A sub-millimetre tolerance: within it, but not once rounded to the millimetre.
+        let fine = ToleranceRule::new(0.0007, 7);
+        assert!(!fine.met(m(0.0006), 1.0, 1.0));
+        assert!(fine.met(m(0.0004), 1.0, 1.0));
+        // A curve much longer than its line does not meet it, however close.
+        assert!(!rule.met(m(1.0), 1.3, 1.0));
+        assert!(rule.met(m(1.0), 1.2, 1.0));
+    }
+
+    #[test]
+    fn halving_is_exact_and_one_retry_aims_lower_by_the_excess() {
+        let rule = ToleranceRule::new(100.0, 7);
+        let half = rule.halved();
+        assert_eq!(half.tolerance_m, 50.0);
+        assert_eq!(half.tol_rad, m_to_rad(50.0));
+        let t = rule.first_target_rad();
+        assert!(t < rule.tol_rad);
+        let over = 1.01 * rule.tol_rad;
+        let lower = rule.retry_target_rad(t, over, true, 0).expect("a retry");
+        assert!(lower < t - 2.0 * (over - rule.tol_rad) + 1e-18);
+        // Only once, only when the fitter met its target, only when over the tolerance.
+        assert_eq!(rule.retry_target_rad(t, over, true, 1), None);
+        assert_eq!(rule.retry_target_rad(t, over, false, 0), None);
+        assert_eq!(rule.retry_target_rad(t, 0.99 * rule.tol_rad, true, 0), None);
+        // Not below a quarter of the tolerance.
+        assert_eq!(rule.retry_target_rad(t, 1.5 * rule.tol_rad, true, 0), None);
+    }
+}

@@ -1,0 +1,188 @@
+//! A GeoJSON document split into independent slots ([`Document`]), and the curves and
+//! positions of its slots counted without validating them (for limits checked before the work).
+
+use super::*;
+
+/// A parsed input document, split into independent slots.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Document {
+    /// Foreign members of a FeatureCollection (everything but `type`, `features`).
+    pub members: Map<String, Value>,
+    /// The features in input order.
+    pub slots: Vec<FeatureSlot>,
+}
+
+impl Document {
+    /// Splits `value` (a FeatureCollection, Feature or geometry; with `allow_spline`, also a
+    /// bare spline document with `"crs": "lonlat"`) into slots. Only the outer structure is
+    /// checked here; each slot is checked when processed.
+    ///
+    /// # Errors
+    /// [`Problem::InvalidGeoJson`] for anything else.
+    pub fn parse(value: Value, allow_spline: bool) -> Result<Document, EarthError> {
+        let Value::Object(mut map) = value else {
+            return Err(invalid(
+                "",
+                format!(
+                    "expected a GeoJSON object (FeatureCollection, Feature or geometry), got {}",
+                    json_kind(&value)
+                ),
+            ));
+        };
+        let is_spline_doc = allow_spline
+            && (map.contains_key("control_points") || map.contains_key("segments"))
+            && matches!(
+                map.get("type").map(|t| t.as_str()),
+                None | Some(Some("bspline")) | Some(Some("beta"))
+            );
+        if is_spline_doc {
+            if map.get("crs").and_then(Value::as_str) != Some("lonlat") {
+                return Err(invalid(
+                    "/crs",
+                    "a bare spline document needs \"crs\": \"lonlat\" (a document of unit vectors is an S^n document: evaluate it on S^n)",
+                ));
+            }
+            return Ok(Document {
+                members: Map::new(),
+                slots: vec![FeatureSlot {
+                    pointer: String::new(),
+                    source: Source::Spline(Value::Object(map)),
+                }],
+            });
+        }
+        let kind = match map.get("type") {
+            Some(Value::String(s)) => s.clone(),
+            Some(other) => {
+                return Err(invalid(
+                    "/type",
+                    format!("\"type\" must be a string, got {}", json_kind(other)),
+                ))
+            }
+            None => {
+                return Err(invalid(
+                    "",
+                    "missing \"type\": expected a FeatureCollection, Feature or geometry",
+                ))
+            }
+        };
+        check_bbox(&map, "")?;
+        match kind.as_str() {
+            "FeatureCollection" => {
+                let features = match map.remove("features") {
+                    Some(Value::Array(a)) => a,
+                    Some(other) => {
+                        return Err(invalid(
+                            "/features",
+                            format!("\"features\" must be an array, got {}", json_kind(&other)),
+                        ))
+                    }
+                    None => return Err(invalid("", "a FeatureCollection needs \"features\"")),
+                };
+                map.remove("type");
+                let slots = features
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, f)| FeatureSlot {
+                        pointer: format!("/features/{i}"),
+                        source: Source::Feature {
+                            feature: f,
+                            geometry_pointer: format!("/features/{i}/geometry"),
+                        },
+                    })
+                    .collect();
+                Ok(Document {
+                    members: map,
+                    slots,
+                })
+            }
+            "Feature" => Ok(Document {
+                members: Map::new(),
+                slots: vec![FeatureSlot {
+                    pointer: String::new(),
+                    source: Source::Feature {
+                        feature: Value::Object(map),
+                        geometry_pointer: "/geometry".into(),
+                    },
+                }],
+            }),
+            t if CURVE_TYPES.contains(&t) || OTHER_TYPES.contains(&t) => Ok(Document {
+                members: Map::new(),
+                slots: vec![FeatureSlot {
+                    pointer: String::new(),
+                    source: Source::Feature {
+                        feature: json!({"type": "Feature", "properties": null, "geometry": Value::Object(map)}),
+                        geometry_pointer: String::new(),
+                    },
+                }],
+            }),
+            t => Err(invalid(
+                "/type",
+                format!("unknown GeoJSON type {t:?}: expected FeatureCollection, Feature or a geometry type"),
+            )),
+        }
+    }
+
+    /// Input positions in the curve geometries of all slots (what a fit or interpolation will
+    /// process), counted without validating them; for limits. The second value is the index
+    /// of the first slot at which the running count exceeds `limit`, if any.
+    pub fn curve_positions(&self, limit: usize) -> (usize, Option<usize>) {
+        let mut total = 0usize;
+        let mut first_over = None;
+        for (i, slot) in self.slots.iter().enumerate() {
+            if let Source::Feature { feature, .. } = &slot.source {
+                if let Some(g) = feature.get("geometry") {
+                    total += count_positions(g);
+                }
+            }
+            if total > limit && first_over.is_none() {
+                first_over = Some(i);
+            }
+        }
+        (total, first_over)
+    }
+
+    /// The output FeatureCollection: `features` in input order and the input collection's
+    /// foreign members (its `bbox` is dropped when any feature changed).
+    pub fn into_feature_collection(self, features: Vec<JsonOut>, changed: bool) -> JsonOut {
+        let mut out = BTreeMap::new();
+        for (k, v) in self.members {
+            if k == "bbox" && changed {
+                continue;
+            }
+            out.insert(k, JsonOut::Value(v));
+        }
+        out.insert("type".into(), JsonOut::Value(json!("FeatureCollection")));
+        out.insert("features".into(), JsonOut::Array(features));
+        JsonOut::Object(out)
+    }
+}
+
+/// Lines and rings in a curve geometry, counted without validating it.
+pub(super) fn count_curves(geometry: &Value) -> usize {
+    let kind = geometry.get("type").and_then(Value::as_str).unwrap_or("");
+    let c = geometry.get("coordinates").and_then(Value::as_array);
+    match (kind, c) {
+        ("LineString", Some(_)) => 1,
+        ("MultiLineString" | "Polygon", Some(a)) => a.len(),
+        ("MultiPolygon", Some(a)) => a.iter().map(|p| p.as_array().map_or(0, Vec::len)).sum(),
+        _ => 0,
+    }
+}
+
+pub(super) fn count_positions(geometry: &Value) -> usize {
+    let kind = geometry.get("type").and_then(Value::as_str).unwrap_or("");
+    let depth = match kind {
+        "LineString" => 1,
+        "MultiLineString" | "Polygon" => 2,
+        "MultiPolygon" => 3,
+        _ => return 0,
+    };
+    fn count(v: &Value, depth: usize) -> usize {
+        match v.as_array() {
+            None => 0,
+            Some(a) if depth == 1 => a.len(),
+            Some(a) => a.iter().map(|x| count(x, depth - 1)).sum(),
+        }
+    }
+    geometry.get("coordinates").map_or(0, |c| count(c, depth))
+}

@@ -1,0 +1,296 @@
+use super::*;
+
+fn job(kind: OperationKind, pairs: &[(&str, &str)]) -> Result<Job, EarthError> {
+    let mut raw = RawOptions::default();
+    for (k, v) in pairs {
+        raw.set(k, v).unwrap();
+    }
+    into_job(raw, kind, &Limits::default())
+}
+
+fn fit(pairs: &[(&str, &str)]) -> Result<Job, EarthError> {
+    job(OperationKind::Fit, pairs)
+}
+
+/// The option an error names and its kind.
+fn refused(r: Result<Job, EarthError>) -> (&'static str, &'static str) {
+    let e = r.unwrap_err();
+    let (option, _) = e.problem.option_message().expect("an option's error");
+    (option, e.problem.slug())
+}
+
+#[test]
+fn defaults_are_the_faithful_fit_per_feature_with_small_rings_kept() {
+    let j = fit(&[]).unwrap();
+    assert_eq!(j.operation, Operation::Fit(FitOptions::faithful()));
+    assert_eq!(j.output, OutputOptions::default());
+    assert_eq!(
+        (j.topology, j.format, j.drop_small_rings),
+        (Topology::PerFeature, OutputFormat::GeoJson, false)
+    );
+    assert_eq!(j.time, TimeOptions::default());
+    assert_eq!(
+        job(OperationKind::Interpolate, &[]).unwrap().operation,
+        Operation::Interpolate(InterpolateSettings::default())
+    );
+}
+
+#[test]
+fn every_option_lands_in_its_place() {
+    let j = fit(&[
+        ("control_points", "12"),
+        ("degree", "2"),
+        ("knots", "uniform"),
+        ("iterations", "50"),
+        ("parameterization", "centripetal"),
+        ("solver", "gls-pia"),
+        ("parameter_correction", "false"),
+        ("samples", "20"),
+        ("spacing_m", "250"),
+        ("precision", "5"),
+        ("drop_small_rings", "true"),
+    ])
+    .unwrap();
+    let o = j.operation.fit_options().unwrap();
+    assert_eq!(
+        (o.control_points, o.degree, o.knots, o.iterations),
+        (Some(12), 2, KnotPlacement::Uniform, 50)
+    );
+    assert_eq!(
+        (o.parameterization, o.solver, o.parameter_correction),
+        (Parameterization::Centripetal, Solver::GlsPia, false)
+    );
+    assert_eq!(
+        j.output,
+        OutputOptions {
+            sampling: Sampling::SpacingAndSamples {
+                spacing_m: 250.0,
+                samples: 20
+            },
+            precision: 5
+        }
+    );
+    assert!(j.drop_small_rings);
+    let j = fit(&[
+        ("tolerance_m", "25"),
+        ("topology", "shared"),
+        ("format", "topojson"),
+    ])
+    .unwrap();
+    assert!(matches!(
+        j.operation,
+        Operation::FitToTolerance { tolerance_m, .. } if tolerance_m == 25.0
+    ));
+    assert_eq!(
+        (j.topology, j.format),
+        (Topology::Shared, OutputFormat::TopoJson)
+    );
+}
+
+#[test]
+fn time_is_asked_for_or_implied_and_conflicts_with_another_parameterization() {
+    let t = |pairs| fit(pairs).unwrap().time.fit_in_time;
+    assert_eq!(t(&[("parameterization", "time")]), Some(TimeSource::Auto));
+    assert_eq!(
+        t(&[("time_property", "when")]),
+        Some(TimeSource::Property("when".into()))
+    );
+    assert_eq!(t(&[("spacing_s", "30")]), Some(TimeSource::Auto));
+    // parameterization=time is not a math-core parameterisation: the fit keeps its own.
+    assert_eq!(
+        fit(&[("parameterization", "time")])
+            .unwrap()
+            .operation
+            .fit_options()
+            .unwrap()
+            .parameterization,
+        FitOptions::faithful().parameterization
+    );
+    assert_eq!(
+        refused(fit(&[("parameterization", "chord"), ("spacing_s", "30")])),
+        ("spacing_s", "conflicting-options")
+    );
+    assert_eq!(
+        refused(fit(&[
+            ("parameterization", "uniform"),
+            ("time_property", "t")
+        ])),
+        ("time_property", "conflicting-options")
+    );
+    // On evaluation spacing_s is the spacing of a curve already in time.
+    let e = job(OperationKind::Evaluate, &[("spacing_s", "60")]).unwrap();
+    assert_eq!(e.time.fit_in_time, None);
+    assert_eq!(e.output.sampling, Sampling::SpacingS(60.0));
+    assert_eq!(
+        refused(job(OperationKind::Interpolate, &[("spacing_s", "10")])),
+        ("spacing_s", "invalid-option")
+    );
+}
+
+#[test]
+fn options_that_exclude_each_other_are_refused_once_naming_both() {
+    let e = fit(&[("tolerance_m", "100"), ("control_points", "5")]).unwrap_err();
+    assert_eq!(e.problem.slug(), "conflicting-options");
+    assert_eq!(
+        e.problem.option_message().unwrap(),
+        (
+            "tolerance_m",
+            "tolerance_m excludes control_points: a tolerance fit chooses its own control points"
+                .to_string()
+        )
+    );
+    let flags = e
+        .problem
+        .option_message_named(&|n: &str| format!("--{}", n.replace('_', "-")))
+        .unwrap();
+    assert!(
+        flags
+            .1
+            .starts_with("--tolerance-m excludes --control-points"),
+        "{}",
+        flags.1
+    );
+    for other in ["samples", "spacing_m"] {
+        assert_eq!(
+            refused(job(
+                OperationKind::Evaluate,
+                &[("spacing_s", "30"), (other, "10")]
+            )),
+            ("spacing_s", "conflicting-options")
+        );
+    }
+    assert_eq!(
+        refused(
+            crate::sphere::fit::options_check::check_tolerance_fit(Some(0.01), Some(5))
+                .map_err(EarthError::from)
+                .map(|_| fit(&[]).unwrap())
+        ),
+        ("tolerance_rad", "conflicting-options")
+    );
+}
+
+#[test]
+fn topology_and_format_rules() {
+    let e = fit(&[("topology", "shared")]).unwrap_err();
+    assert!(matches!(
+        e.problem,
+        Problem::RequiresOption {
+            option: "topology",
+            requires: "tolerance_m",
+            ..
+        }
+    ));
+    assert_eq!(
+        refused(fit(&[("format", "topojson"), ("tolerance_m", "10")])),
+        ("format", "invalid-option")
+    );
+    assert_eq!(
+        refused(fit(&[
+            ("topology", "shared"),
+            ("tolerance_m", "10"),
+            ("parameterization", "time")
+        ])),
+        ("topology", "invalid-option")
+    );
+    assert!(fit(&[
+        ("topology", "shared"),
+        ("tolerance_m", "10"),
+        ("format", "topojson")
+    ])
+    .is_ok());
+}
+
+#[test]
+fn ranges_limits_and_foreign_options_are_refused_naming_the_option() {
+    for (k, v) in [
+        ("degree", "9"),
+        ("control_points", "2"),
+        ("samples", "1"),
+        ("precision", "16"),
+        ("iterations", "100000"),
+        ("spacing_m", "0"),
+        ("tolerance_m", "0"),
+        ("spacing_s", "-1"),
+    ] {
+        assert_eq!(refused(fit(&[(k, v)])).0, k, "{k}={v}");
+    }
+    assert_eq!(
+        refused(job(OperationKind::Interpolate, &[("beta1", "0")])).0,
+        "beta1"
+    );
+    let e = job(OperationKind::Evaluate, &[("at", "1,,2")]).unwrap_err();
+    assert_eq!(e.problem.option_message().unwrap().0, "at");
+    assert_eq!(
+        job(OperationKind::Evaluate, &[("at", "1,2010-10-03T09:36:30Z")])
+            .unwrap()
+            .time
+            .at_unix_s,
+        Some(vec![1.0, 1286098590.0])
+    );
+    assert_eq!(
+        refused(job(
+            OperationKind::Evaluate,
+            &[("at", "1"), ("samples", "5")]
+        ))
+        .0,
+        "at"
+    );
+    // An option of another operation (a front end that fills a field the operation does
+    // not take) is refused, not ignored.
+    assert_eq!(
+        refused(job(
+            OperationKind::Interpolate,
+            &[("drop_small_rings", "true")]
+        )),
+        ("drop_small_rings", "invalid-option")
+    );
+    assert_eq!(refused(fit(&[("at", "1")])), ("at", "invalid-option"));
+}
+
+#[test]
+fn set_parses_as_the_query_does() {
+    let mut raw = RawOptions::default();
+    for (k, bad) in [
+        ("samples", "ten"),
+        ("samples", "+5"),
+        ("spacing_m", "NaN"),
+        ("spacing_m", "inf"),
+        ("spacing_m", " 1"),
+        ("knots", "spline"),
+        ("drop_small_rings", "yes"),
+        ("topology", "merged"),
+        ("nonsense", "1"),
+    ] {
+        let e = raw.set(k, bad).unwrap_err();
+        assert_eq!(e.option, k);
+    }
+    assert_eq!(raw, RawOptions::default(), "nothing set by a failed parse");
+    raw.set("spacing_m", "-1.5e-3").unwrap();
+    assert_eq!(raw.spacing_m, Some(-1.5e-3));
+    assert_eq!(raw.given(), ["spacing_m"]);
+}
+
+#[test]
+fn every_option_name_is_one_that_set_reads_and_given_reports() {
+    for kind in [
+        OperationKind::Fit,
+        OperationKind::Interpolate,
+        OperationKind::Evaluate,
+    ] {
+        for name in kind.option_names() {
+            let value = match *name {
+                "knots" => "uniform",
+                "parameterization" => "chord",
+                "solver" => "gls-pia",
+                "parameter_correction" | "drop_small_rings" => "true",
+                "topology" => "shared",
+                "format" => "topojson",
+                "time_property" | "at" => "t",
+                _ => "3",
+            };
+            let mut raw = RawOptions::default();
+            raw.set(name, value).unwrap();
+            assert_eq!(raw.given(), [*name]);
+        }
+    }
+}

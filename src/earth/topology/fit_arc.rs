@@ -1,0 +1,201 @@
+//! One arc of a coverage fitted to the tolerance with pinned ends, rounded, sampled and
+//! measured as returned.
+
+use super::*;
+
+/// Fits one arc to the tolerance with pinned ends (see the module docs), rounds it, samples it
+/// and measures the curve as returned.
+pub(super) fn fit_arc(
+    points_in: &[[f64; 3]],
+    closed: bool,
+    tolerance: ToleranceRule,
+    degree_cap: usize,
+    parameterization: crate::sphere::Parameterization,
+    job: &Job,
+) -> Result<FittedArc, EarthError> {
+    let mut rows = points_in.to_vec();
+    let mut smooth_seam = false;
+    if closed {
+        // Start the closed curve at its sharpest corner: a C0 seam there costs nothing.
+        rows.pop();
+        let n = rows.len();
+        let mut cyc = Vec::with_capacity(n + 2);
+        cyc.push(rows[n - 1]);
+        cyc.extend_from_slice(&rows);
+        cyc.push(rows[0]);
+        let set = PointSet::try_from_rows(&cyc).map_err(|e| sphere_error(e, "", &[]))?;
+        let turns = turning_angles(&set);
+        let (k, turn) = (0..n)
+            .map(|i| (i, turns[i + 1]))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("a ring has vertices");
+        rows.rotate_left(k);
+        rows.push(rows[0]);
+        smooth_seam = turn < CORNER_ANGLE_RAD;
+    }
+    let n_in = if closed { rows.len() - 1 } else { rows.len() };
+    let points = PointSet::try_from_rows(&rows).map_err(|e| sphere_error(e, "", &[]))?;
+    let output = &job.output;
+    let tol_rad = tolerance.tol_rad;
+    let line_length = polyline_length(&points);
+    let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
+    let mut target = tolerance.first_target_rad();
+    let mut topts = ToleranceOptions {
+        parameterization,
+        max_control_points: Some(points.len()),
+        pin_ends: true,
+        measure_result: false,
+        ..ToleranceOptions::default()
+    };
+    topts.degrees.retain(|&p| p <= degree_cap);
+    // The max error at the positions, and the two-way distance and the curve's length.
+    let measure = |spline: &SphericalBSpline, params: &[f64]| -> Result<Measured, EarthError> {
+        let errs = pointwise_errors(spline, &points, params);
+        let max = errs.iter().fold(0.0f64, |a, &b| a.max(b));
+        let tw = two_way_distance(
+            spline,
+            &points,
+            params,
+            &TwoWayOptions::default()
+                .with_precision_rad(0.01 * tol_rad)
+                .with_max_evaluations(4_000_000 + 400 * points.len()),
+        )
+        .map_err(|e| sphere_error(e, "", &[]))?;
+        Ok(Measured {
+            max_rad: max,
+            two_way_rad: tw.upper_rad,
+            curve_length_rad: tw.curve_length_rad,
+        })
+    };
+    let met = |m: &Measured| tolerance.met(m.worst_rad(), m.curve_length_rad, line_length);
+    let mut attempt = 0;
+    let (spline, control_ll, rule, measured, seam) = loop {
+        let r = fit_to_tolerance(&points, None, target, &topts)
+            .map_err(|e| sphere_error(e, "", &[]))?;
+        let (rounded, ll) =
+            round_spline(&r.spline, output.precision).map_err(|e| sphere_error(e, "", &[]))?;
+        let m = measure(&rounded, &r.parameters)?;
+        let mut best = (rounded, ll, r.knot_rule, m, closed.then_some("corner"));
+        if closed && smooth_seam && r.spline.degree() >= 2 {
+            // A C1 seam where the ring is smooth, kept when the tolerance still holds.
+            if let Ok(c1) = close_seam(&r.spline, true) {
+                if let Ok((rc, llc)) = round_spline(&c1, output.precision) {
+                    let m2 = measure(&rc, &r.parameters)?;
+                    if met(&m2) {
+                        best = (rc, llc, r.knot_rule, m2, Some("smooth"));
+                    }
+                }
+            }
+        }
+        let worst = best.3.worst_rad();
+        if let Some(lower) = tolerance.retry_target_rad(target, worst, r.tolerance_met, attempt) {
+            target = lower;
+            attempt += 1;
+            continue;
+        }
+        break best;
+    };
+    // A closed arc is a whole ring: at least 4 positions (RFC 7946 §3.1.6).
+    let sampling = match output.sampling {
+        crate::earth::Sampling::Samples(n) if closed && n < 4 => crate::earth::Sampling::Samples(4),
+        crate::earth::Sampling::SpacingM(spacing_m) if closed => {
+            crate::earth::Sampling::SpacingAndSamples {
+                spacing_m,
+                samples: 4,
+            }
+        }
+        s => s,
+    };
+    let dense = sample(
+        &spline,
+        sampling,
+        dense_margin,
+        sampling_start(spline.control_points().len()),
+        job.limits.max_samples,
+    )
+    .map_err(|e| EarthError::new("", e.problem))?;
+    let mut pts = dense.points.clone();
+    let last = pts.len() - 1;
+    // The ends are the (pinned, rounded) end control points exactly.
+    let cps = spline.control_points();
+    let (c0, c1) = (cps.get(0), cps.get(cps.len() - 1));
+    pts[0] = [c0[0], c0[1], c0[2]];
+    pts[last] = [c1[0], c1[1], c1[2]];
+    let precision = output.precision;
+    let mut dense_ll: Vec<[f64; 2]> = pts
+        .iter()
+        .map(|p| {
+            let (lon, lat) = unit_to_lonlat(p);
+            [round_to(lon, precision), round_to(lat, precision)]
+        })
+        .collect();
+    dense_ll[0] = control_ll[0];
+    dense_ll[last] = control_ll[control_ll.len() - 1];
+    if closed {
+        dense_ll[last] = dense_ll[0];
+        pts[last] = pts[0];
+    }
+    // Neighbours that round to one position are written once: readers that join arcs (GDAL,
+    // topojson-client) would otherwise keep a zero-length edge the GeoJSON output does not
+    // have. The ends stay (a closed arc keeps both copies of its first position).
+    let mut keep = vec![true; dense_ll.len()];
+    let mut prev = 0;
+    for i in 1..dense_ll.len() {
+        if dense_ll[i] == dense_ll[prev] && i != last {
+            keep[i] = false;
+        } else {
+            if dense_ll[i] == dense_ll[prev] && prev != 0 {
+                keep[prev] = false;
+            }
+            prev = i;
+        }
+    }
+    if keep.iter().any(|k| !k) {
+        let mut k = keep.iter();
+        dense_ll.retain(|_| *k.next().expect("one flag a position"));
+        let mut k = keep.iter();
+        pts.retain(|_| *k.next().expect("one flag a position"));
+    }
+    let stored = stored_numbers(&spline, rule);
+    let met = met(&measured);
+    Ok(FittedArc {
+        stored_numbers: stored,
+        knot_rule: rule,
+        control_ll,
+        dense: pts,
+        dense_ll,
+        max_error_rad: measured.max_rad,
+        two_way_rad: measured.two_way_rad,
+        curve_length_rad: measured.curve_length_rad,
+        line_length_rad: line_length,
+        tolerance_met: met,
+        input_points: n_in,
+        seam,
+        sampling_deviation_rad: dense.max_deviation_rad,
+        tolerance_rad: tol_rad,
+        spline,
+    })
+}
+
+/// What is measured of an arc's curve as returned.
+struct Measured {
+    max_rad: f64,
+    two_way_rad: f64,
+    curve_length_rad: f64,
+}
+
+impl Measured {
+    /// The larger of the max error and the two-way distance.
+    fn worst_rad(&self) -> f64 {
+        self.max_rad.max(self.two_way_rad)
+    }
+}
+
+/// Whether a fitted arc meets `tolerance` (the job's, for an arc refitted tighter).
+pub(super) fn tolerance_met_by(arc: &FittedArc, tolerance: &ToleranceRule) -> bool {
+    tolerance.met(
+        arc.max_error_rad.max(arc.two_way_rad),
+        arc.curve_length_rad,
+        arc.line_length_rad,
+    )
+}

@@ -1,0 +1,178 @@
+use super::*;
+use crate::earth::lonlat::m_to_rad;
+use crate::sphere::FitOptions;
+
+fn job(tolerance_m: f64) -> Job {
+    Job {
+        operation: Operation::FitToTolerance {
+            options: FitOptions::faithful(),
+            tolerance_m,
+        },
+        ..Job::fit(FitOptions::default())
+    }
+}
+
+/// A wavy border from (0, 0) to (0, 2) shared by a west and an east square-ish feature.
+fn two_neighbours() -> Value {
+    let border: Vec<[f64; 2]> = (0..=100)
+        .map(|i| {
+            let t = i as f64 / 100.0;
+            [0.05 * (12.0 * t).sin(), 2.0 * t]
+        })
+        .collect();
+    let mut west = border.clone();
+    west.extend([[-2.0, 2.0], [-2.0, 0.0], border[0]]);
+    let mut east: Vec<[f64; 2]> = border.iter().rev().copied().collect();
+    east.extend([[2.0, 0.0], [2.0, 2.0], border[100]]);
+    json!({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "id": "w", "properties": {"name": "west"}, "geometry": {"type": "Polygon", "coordinates": [west]}},
+        {"type": "Feature", "properties": null, "geometry": {"type": "Polygon", "coordinates": [east]}},
+        {"type": "Feature", "properties": {"p": 1}, "geometry": {"type": "Point", "coordinates": [5, 5]}}
+    ]})
+}
+
+#[test]
+fn neighbours_share_identical_coordinates_and_arcs_are_stored_once() {
+    let doc = Document::parse(two_neighbours(), false).unwrap();
+    let c = fit_coverage(doc, &job(500.0)).unwrap();
+    assert_eq!(c.graph.arcs.len(), 3);
+    assert_eq!(c.report["shared_arcs"], 1);
+    assert_eq!(c.report["tolerance_met"], true);
+    let w = &c.features[0]["geometry"]["coordinates"][0];
+    let e = &c.features[1]["geometry"]["coordinates"][0];
+    let as_set = |r: &Value| -> std::collections::BTreeSet<String> {
+        r.as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p.to_string())
+            .collect()
+    };
+    let (ws, es) = (as_set(w), as_set(e));
+    let common = ws.intersection(&es).count();
+    // Every output point of the shared arc is in both rings, bit for bit.
+    let shared = c.graph.arcs.iter().position(|a| a.uses == 2).unwrap();
+    assert_eq!(common, c.arcs[shared].dense_ll.len());
+    assert!(common > 2);
+    // Arcs counted once: the dataset stores less than the features' sum.
+    let once = c.report["stored_numbers"].as_u64().unwrap();
+    let sum = c.report["stored_numbers_per_feature_sum"].as_u64().unwrap();
+    assert_eq!(sum - once, c.arcs[shared].stored_numbers as u64);
+    // Properties, ids and other features pass through.
+    assert_eq!(c.features[0]["id"], "w");
+    assert_eq!(c.features[0]["properties"]["name"], "west");
+    assert_eq!(c.features[2]["geometry"]["coordinates"], json!([5, 5]));
+    assert!(
+        c.features[0]["properties"]["fit"]["area_change"]
+            .as_f64()
+            .unwrap()
+            .abs()
+            < 1e-3
+    );
+}
+
+#[test]
+fn arcs_that_cross_their_neighbours_are_refitted_tighter() {
+    // A corridor 445 to 890 m wide between two features, its borders wiggling by 5 km
+    // together and sampled differently: at 2 km each border's fit may wander 2 km, so the
+    // two cross; at an eighth of that (3 halvings) they cannot. (At 1.5 km they no longer
+    // cross since polyline removals keep their corners on the line.)
+    let wave = |n: usize, offset_deg: f64, extra: f64| -> Vec<[f64; 2]> {
+        (0..=n)
+            .map(|i| {
+                let t = i as f64 / n as f64;
+                [
+                    3.0 * t,
+                    offset_deg
+                        + 0.045 * (9.0 * t).sin()
+                        + 0.02 * (23.0 * t).sin()
+                        + extra * (41.0 * t).sin(),
+                ]
+            })
+            .collect()
+    };
+    // 445 to 890 m apart.
+    let (low, high) = (wave(97, 0.0, 0.0), wave(61, 0.006, 0.002));
+    let mut a = low.clone();
+    a.extend([[3.0, -1.0], [0.0, -1.0], low[0]]);
+    let mut corridor: Vec<[f64; 2]> = low.clone();
+    corridor.extend(high.iter().rev());
+    corridor.push(low[0]);
+    let mut b: Vec<[f64; 2]> = high.iter().rev().copied().collect();
+    b.extend([[0.0, 1.0], [3.0, 1.0], high[high.len() - 1]]);
+    let doc = json!({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [a]}},
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [corridor]}},
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [b]}}
+    ]});
+    let c = fit_coverage(Document::parse(doc, false).unwrap(), &job(2000.0)).unwrap();
+    assert!(
+        c.report["tightened_arcs"].as_u64().unwrap() >= 1,
+        "{}",
+        c.report
+    );
+    assert_eq!(c.report["crossings_left"], json!([]));
+    assert_eq!(c.report["tolerance_met"], true);
+    let tightened: Vec<&FittedArc> = c
+        .arcs
+        .iter()
+        .filter(|a| a.tolerance_rad < m_to_rad(2000.0))
+        .collect();
+    assert!(tightened
+        .iter()
+        .all(|a| a.max_error_rad.max(a.two_way_rad) <= a.tolerance_rad));
+    assert_eq!(
+        c.features[1]["properties"]["fit"]["tightened_arcs"]
+            .as_u64()
+            .unwrap() as usize,
+        tightened.len()
+    );
+}
+
+#[test]
+fn an_island_is_one_closed_arc_smooth_across_its_seam() {
+    let ring: Vec<[f64; 2]> = (0..=1000)
+        .map(|i| {
+            let a = std::f64::consts::TAU * (i % 1000) as f64 / 1000.0;
+            [
+                10.0 + 2.0 * a.cos(),
+                40.0 + 1.5 * a.sin() + 0.1 * (3.0 * a).sin(),
+            ]
+        })
+        .collect();
+    let doc = Document::parse(json!({"type": "Polygon", "coordinates": [ring]}), false).unwrap();
+    let c = fit_coverage(doc, &job(50.0)).unwrap();
+    assert_eq!(c.graph.arcs.len(), 1);
+    let a = &c.arcs[0];
+    assert!(a.tolerance_met);
+    assert_eq!(a.dense_ll.first(), a.dense_ll.last());
+    assert_eq!(a.seam, Some("smooth"), "degree {}", a.spline.degree());
+}
+
+#[test]
+fn a_ring_that_bounds_no_area_is_kept() {
+    // A ring that bounds no area is kept as it came and listed, as per-feature fitting
+    // keeps it.
+    let doc = Document::parse(
+        json!({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 0], [1, 0], [0, 0]]]}),
+        false,
+    )
+    .unwrap();
+    let c = fit_coverage(doc, &job(10.0)).unwrap();
+    assert_eq!(c.report["kept_rings"], json!(["/coordinates/0"]));
+    assert_eq!(
+        c.features[0]["geometry"]["coordinates"],
+        json!([[[0.0, 0.0], [1.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 0.0]]])
+    );
+    assert!(
+        c.feature_rings[0].is_none(),
+        "TopoJSON writes it as its own arcs"
+    );
+    // Bad positions are still errors, with their pointer.
+    let doc = Document::parse(
+        json!({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 95], [0, 0]]]}),
+        false,
+    )
+    .unwrap();
+    let e = fit_coverage(doc, &job(10.0)).unwrap_err();
+    assert_eq!(e.pointer, "/coordinates/0/2/1");
+}
