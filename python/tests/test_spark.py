@@ -87,7 +87,7 @@ def test_spark_bad_input(spark):
 
 
 def test_spark_reads_geoparquet_and_fits_it(spark, tmp_path):
-    """The README's Spark example: GeoParquet read as plain Parquet has a WKB column."""
+    """The Spark example of docs/python.md: GeoParquet read as plain Parquet has a WKB column."""
     gdf, _ = wkb_table()
     path = tmp_path / "tracks.parquet"
     gdf.to_parquet(path)

@@ -6,8 +6,8 @@
 //! of the CDF of `|q^(p)|^(1/p)`. On the 10m US–Mexico border that piles knots into the densely
 //! sampled, meandering Rio Grande and leaves the long straight land border with a handful, and
 //! every sharp turn of the polyline is one large spike of the p-th difference that several knots
-//! chase without ever making a corner. Three changes, each measured on real borders (the table
-//! in the README, `examples/default_fit_study.rs`):
+//! chase without ever making a corner. Three changes, each measured on real borders
+//! (`examples/default_fit_study.rs`; the numbers are in `docs/default-fit.md`):
 //!
 //! * **Corners become C0 joints.** A vertex where the polyline turns by at least
 //!   [`CORNER_ANGLE_RAD`] is a corner candidate; the sharpest ones (at most
@@ -23,20 +23,10 @@
 //!
 //! With no corner candidates and no arc-length share this is exactly the paper's placement.
 //!
-//! # What `KnotPlacement::Adaptive` does with it
-//! No single placement won on every line: at half the positions, Gauss–Newton with the paper's
-//! knots leaves 2.6–5.0 km on the 10m US–Mexico border and 0.4–1.5 km on the other 10m borders;
-//! these knots leave 0.75 km on US–Mexico and 0.5–2.1 km on the others. So
-//! [`super::gls_pia::fit`] fits three candidates (the paper's knots, these, uniform knots), each
-//! with and without foot-point correction when that is on, and keeps the lowest max error among
-//! the curves at most [`super::gls_pia::MAX_LENGTH_RATIO`] times as long as the data polyline:
-//! a lower error from a curve that loops between the positions (foot points with Gauss–Newton
-//! did that: 0.71 km at a length ratio of 20 on US–Mexico) is not a faithful fit.
-//!
-//! Measured and dropped (`examples/default_fit_study.rs`): corners ranked by turning angle
-//! alone; knots at Douglas–Peucker dominant points (0.8 km at degree 1 on US–Mexico, 17 km for
-//! cubics); error-driven redistribution of the knots and swapping the knots of the best spans
-//! into the worst (no gain after one round); a point-count share in the CDF.
+//! The default Earth fit (`earth::curve::fitting`) starts from these knots and adds knots and C0
+//! joints where the curve misses the line ([`refine`]). The measurements behind each choice, the
+//! candidates the default once compared and the ideas measured and dropped are in
+//! `docs/default-fit.md`.
 
 use super::knots::feature_function;
 use crate::sphere::geometry::point::{dot, Dim, PointSet};
