@@ -76,6 +76,7 @@ pub mod small_rings;
 pub mod time;
 pub mod topojson;
 pub mod topology;
+pub mod validity;
 
 pub use error::{EarthError, Problem};
 pub use features::{

@@ -28,16 +28,6 @@ impl ToleranceRule {
         }
     }
 
-    /// Half the tolerance (exactly, in metres and radians): a refit of a curve that crosses
-    /// another.
-    pub fn halved(self) -> ToleranceRule {
-        ToleranceRule {
-            tolerance_m: 0.5 * self.tolerance_m,
-            tol_rad: 0.5 * self.tol_rad,
-            ..self
-        }
-    }
-
     /// What the fitter aims at first: below the tolerance by the rounding of the control
     /// points and by the dense output's margin, where that leaves room.
     pub fn first_target_rad(&self) -> f64 {
@@ -93,11 +83,8 @@ mod tests {
     }
 
     #[test]
-    fn halving_is_exact_and_one_retry_aims_lower_by_the_excess() {
+    fn one_retry_aims_lower_by_the_excess() {
         let rule = ToleranceRule::new(100.0, 7);
-        let half = rule.halved();
-        assert_eq!(half.tolerance_m, 50.0);
-        assert_eq!(half.tol_rad, m_to_rad(50.0));
         let t = rule.first_target_rad();
         assert!(t < rule.tol_rad);
         let over = 1.01 * rule.tol_rad;

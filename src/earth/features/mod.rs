@@ -23,7 +23,6 @@ use super::lonlat::lonlat_to_unit;
 use super::small_rings;
 use super::time::{motion, TimeOrigin, TIME_PROPERTIES};
 use super::{EarthError, Job, JsonOut, Operation, Problem};
-use crate::sphere::geometry::crossing::polylines_cross;
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;

@@ -1,18 +1,19 @@
-//! Validity of fitted polygons: rings that cross themselves or their polygon's other rings
-//! where the input's did not are refitted at half their tolerance.
+//! Validity of fitted polygons: rings that meet themselves or their feature's other rings
+//! where the input's did not are refitted tighter ([`crate::earth::validity`]).
 
 use super::*;
+use crate::earth::lonlat::m_to_rad;
+use crate::earth::topology::TIGHTEN_ROUNDS;
+use crate::earth::validity::{tighten, Drawn};
 
-/// How many times a ring whose fit crosses itself or another ring of its polygon is refitted at
-/// half its tolerance (as the shared fit does with its arcs).
-pub(super) const TIGHTEN_ROUNDS: usize = 3;
-
-/// Validity: the fitted rings of one polygon (exterior and holes) must not cross themselves or
-/// each other where the input's rings did not. At a loose tolerance a fitted ring can cut across
-/// a narrow inlet or touch its hole (Antarctica's peninsula at 10 km does); each ring of such a
-/// pair is refitted at half its tolerance, up to [`TIGHTEN_ROUNDS`] times, and its report gives
-/// the tolerance it was fitted to. Only tolerance fits tighten: a fit to a fixed number of
-/// control points, or an interpolation, is what was asked for.
+/// Validity: the fitted rings of one feature (exterior rings, holes, the polygons of a
+/// MultiPolygon) must not meet themselves or each other where the input's rings did not, on
+/// the sphere or as written ([`crate::earth::validity`]). At a loose tolerance a fitted ring can
+/// cut across a narrow inlet, touch its hole (Antarctica's peninsula at 10 km does) or an island
+/// nearby (the Curonian Spit and Lithuania's coast at 1 km); each ring of such a pair is
+/// refitted tighter, up to [`TIGHTEN_ROUNDS`] times, and its report gives the tolerance it was
+/// fitted to. Only tolerance fits tighten: a fit to a fixed number of control points, or an
+/// interpolation, is what was asked for.
 pub(super) fn tighten_crossing_rings(
     jobs: &[CurveJob<'_>],
     outputs: &mut [CurveOutput],
@@ -25,65 +26,36 @@ pub(super) fn tighten_crossing_rings(
     else {
         return Ok(());
     };
-    // Rings by polygon: the path without its last index.
-    let mut polygons: BTreeMap<&[usize], Vec<usize>> = BTreeMap::new();
-    for (i, c) in jobs.iter().enumerate() {
-        if c.closed && !c.path.is_empty() {
-            polygons
-                .entry(&c.path[..c.path.len() - 1])
-                .or_default()
-                .push(i);
-        }
-    }
-    let pairs: Vec<(usize, usize)> = polygons
-        .values()
-        .flat_map(|rings| {
-            rings
-                .iter()
-                .enumerate()
-                .flat_map(move |(k, &a)| rings[k..].iter().map(move |&b| (a, b)))
-        })
+    // Rings kept as small are left alone where they are to be dropped (drop_small_rings): a
+    // tighter refit would keep an islet the user asked to drop.
+    let to_drop =
+        |i: usize| job.drop_small_rings && outputs[i].report.fields.contains_key("small_ring");
+    let rings: Vec<usize> = (0..jobs.len())
+        .filter(|&i| jobs[i].closed && !to_drop(i))
         .collect();
-    let cross = |p: &[[f64; 3]], q: &[[f64; 3]], same| polylines_cross(p, q, same);
-    let input: Vec<Vec<[f64; 3]>> = jobs.iter().map(|c| ring_units(c.value)).collect();
-    let input_crossing: Vec<bool> = pairs
-        .par_iter()
-        .map(|&(a, b)| cross(&input[a], &input[b], a == b))
-        .collect();
-    let mut tolerance = vec![*tolerance_m; jobs.len()];
-    for _ in 0..TIGHTEN_ROUNDS {
-        let crossing: Vec<(usize, usize)> = pairs
-            .par_iter()
-            .zip(&input_crossing)
-            .filter(|&(&(a, b), &was)| {
-                !was && cross(&outputs[a].points, &outputs[b].points, a == b)
-            })
-            .map(|(&p, _)| p)
-            .collect();
-        if crossing.is_empty() {
-            break;
-        }
-        let mut redo: Vec<usize> = crossing.iter().flat_map(|&(a, b)| [a, b]).collect();
-        redo.sort_unstable();
-        redo.dedup();
-        let refits: Vec<(usize, CurveOutput)> = redo
-            .par_iter()
-            .map(|&i| {
-                let _scope = job.cancel.enter();
-                let c = &jobs[i];
-                let t = 0.5 * tolerance[i];
-                fit_line_to_tolerance(c.line(), options, t, c.times.as_ref(), output_spec(job))
-                    .map(|out| (i, out))
-            })
-            .collect::<Result<_, _>>()?;
-        for (i, out) in refits {
-            tolerance[i] *= 0.5;
+    // The input is judged as it would be written at the output's precision: a ring that
+    // rounding alone makes meet itself is excused (no fit could write it valid).
+    let precision = job.output.precision;
+    let units: Vec<Vec<[f64; 3]>> = jobs.iter().map(|c| ring_units(c.value)).collect();
+    let input = Drawn::new(units.iter().map(Vec::as_slice).collect(), Some(precision));
+    // Fitted rings move at most the tolerance from their input (a tightened refit less).
+    let pairs = input.near_pairs(&rings, 2.0 * m_to_rad(*tolerance_m));
+    tighten(
+        &input,
+        &pairs,
+        *tolerance_m,
+        TIGHTEN_ROUNDS,
+        outputs,
+        |o: &CurveOutput| o.points.as_slice(),
+        |i, t| {
+            let _scope = job.cancel.enter();
+            let c = &jobs[i];
+            let out =
+                fit_line_to_tolerance(c.line(), options, t, c.times.as_ref(), output_spec(job))?;
             // A refit that collapsed (or shrank below a triangle) keeps the earlier fit.
-            if !small_rings::collapsed(&out, job.output.precision) {
-                outputs[i] = out;
-            }
-        }
-    }
+            Ok::<_, EarthError>((!small_rings::collapsed(&out, precision)).then_some(out))
+        },
+    )?;
     Ok(())
 }
 

@@ -1,9 +1,11 @@
 //! A coverage's arcs fitted: every arc fitted once ([`fit_arc`]), then, for validity, arcs
-//! of one polygon (exterior and holes) or meeting at a junction that cross each other (or an
-//! arc itself) where the input did not are refitted at half their tolerance, up to
-//! [`TIGHTEN_ROUNDS`] times.
+//! of one feature or meeting at a junction that meet each other (or an arc itself) where the
+//! input did not, on the sphere or as written, are refitted tighter, up to [`TIGHTEN_ROUNDS`]
+//! times ([`crate::earth::validity`]).
 
 use super::*;
+use crate::earth::lonlat::m_to_rad;
+use crate::earth::validity::{self, Drawn, Tightened};
 
 /// The arcs of a coverage, fitted.
 pub(super) struct FittedArcs {
@@ -11,7 +13,7 @@ pub(super) struct FittedArcs {
     pub(super) arcs: Vec<FittedArc>,
     /// How many arcs were fitted to a tighter tolerance than the job's.
     pub(super) tightened: usize,
-    /// The pairs of arcs that still cross after [`TIGHTEN_ROUNDS`].
+    /// The pairs of arcs that still meet after [`TIGHTEN_ROUNDS`].
     pub(super) crossings_left: Vec<(usize, usize)>,
 }
 
@@ -95,72 +97,67 @@ pub(super) fn fit_arcs(
     tighten(&fitting, fitted, tolerance)
 }
 
-/// Refits the arcs that cross where their input did not at half their tolerance, up to
-/// [`TIGHTEN_ROUNDS`] times; a refit arc meets the tolerance when it is within the job's.
+/// Refits the arcs that meet where their input did not ([`crate::earth::validity::tighten`]),
+/// up to [`TIGHTEN_ROUNDS`] times; a refit arc meets the tolerance when it is within the job's.
 fn tighten(
     fitting: &ArcFitting<'_>,
     mut fitted: Vec<FittedArc>,
     tolerance: ToleranceRule,
 ) -> Result<FittedArcs, EarthError> {
     let (graph, input_arcs) = (fitting.graph, &fitting.input_arcs);
-    // Rings by polygon (exterior and holes), so holes are checked against their shell too.
-    let mut polygon_rings: std::collections::BTreeMap<(usize, usize), Vec<usize>> =
-        Default::default();
+    // Rings by feature (exteriors, holes, the polygons of a MultiPolygon), so holes are checked
+    // against their shell and islands against each other.
+    let mut feature_rings: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
     for (ri, src) in fitting.sources.iter().enumerate() {
-        polygon_rings
-            .entry((src.feature, src.polygon))
-            .or_default()
-            .push(ri);
+        feature_rings.entry(src.feature).or_default().push(ri);
     }
-    let groups: Vec<Vec<usize>> = polygon_rings.into_values().collect();
-    let pairs = arc_pairs(graph, &groups);
-    let input_crossing: HashSet<(usize, usize)> = pairs
-        .par_iter()
-        .filter(|&&(a, b)| polylines_cross(&input_arcs[a], &input_arcs[b], a == b))
-        .copied()
-        .collect();
-    let mut arc_tol = vec![tolerance; graph.arcs.len()];
-    let mut crossings_left = Vec::new();
-    for round in 0..=TIGHTEN_ROUNDS {
-        let crossing: Vec<(usize, usize)> = pairs
-            .par_iter()
-            .filter(|p| !input_crossing.contains(p))
-            .filter(|&&(a, b)| polylines_cross(&fitted[a].dense, &fitted[b].dense, a == b))
-            .copied()
-            .collect();
-        if crossing.is_empty() || round == TIGHTEN_ROUNDS {
-            crossings_left = crossing;
-            break;
-        }
-        let mut redo: Vec<usize> = crossing.iter().flat_map(|&(a, b)| [a, b]).collect();
-        redo.sort_unstable();
-        redo.dedup();
-        let refits = fitting.fit_many(&redo, |a| arc_tol[a].halved())?;
-        for (a, f) in redo.into_iter().zip(refits) {
-            arc_tol[a] = arc_tol[a].halved();
-            fitted[a] = FittedArc {
+    let groups: Vec<Vec<usize>> = feature_rings.into_values().collect();
+    // Judged as written at the output's precision, as per feature.
+    let input = Drawn::new(
+        input_arcs.iter().map(Vec::as_slice).collect(),
+        Some(fitting.job.output.precision),
+    );
+    let pairs = arc_pairs(graph, &groups, &input, 2.0 * tolerance.tol_rad);
+    let Tightened {
+        tolerance_m,
+        left: crossings_left,
+    } = validity::tighten(
+        &input,
+        &pairs,
+        tolerance.tolerance_m,
+        TIGHTEN_ROUNDS,
+        &mut fitted,
+        |f: &FittedArc| f.dense.as_slice(),
+        |a, t| {
+            let f = fitting.fit(a, ToleranceRule::new(t, tolerance.precision))?;
+            Ok::<_, EarthError>(Some(FittedArc {
                 tolerance_met: tolerance_met_by(&f, &tolerance),
                 ..f
-            };
-        }
-    }
+            }))
+        },
+    )?;
     for (a, f) in fitted.iter_mut().enumerate() {
-        f.tolerance_rad = arc_tol[a].tol_rad;
+        f.tolerance_rad = m_to_rad(tolerance_m[a]);
     }
     Ok(FittedArcs {
         arcs: fitted,
-        tightened: arc_tol
+        tightened: tolerance_m
             .iter()
-            .filter(|t| t.tol_rad < tolerance.tol_rad)
+            .filter(|&&t| t < tolerance.tolerance_m)
             .count(),
         crossings_left,
     })
 }
 
-/// The pairs of arcs (a <= b; (a, a) for an arc and itself) that could cross in a way that
-/// matters: arcs of one polygon (its exterior and holes: `groups` lists each polygon's rings),
-/// and arcs ending at one junction.
-fn arc_pairs(graph: &ArcGraph, groups: &[Vec<usize>]) -> Vec<(usize, usize)> {
+/// The pairs of arcs (a <= b; (a, a) for an arc and itself) that could meet in a way that
+/// matters: arcs of one feature (`groups` lists each feature's rings) whose boxes come within
+/// `grow` of each other ([`Drawn::near_pairs`]), and arcs ending at one junction.
+fn arc_pairs(
+    graph: &ArcGraph,
+    groups: &[Vec<usize>],
+    drawn: &Drawn<'_>,
+    grow: f64,
+) -> Vec<(usize, usize)> {
     let mut pairs = BTreeSet::new();
     let mut at_vertex: std::collections::HashMap<usize, Vec<usize>> = Default::default();
     for (a, arc) in graph.arcs.iter().enumerate() {
@@ -171,13 +168,6 @@ fn arc_pairs(graph: &ArcGraph, groups: &[Vec<usize>]) -> Vec<(usize, usize)> {
             }
         }
     }
-    let mut add_all = |arcs: &[usize]| {
-        for (i, &a) in arcs.iter().enumerate() {
-            for &b in &arcs[i..] {
-                pairs.insert((a.min(b), a.max(b)));
-            }
-        }
-    };
     for rings in groups {
         let mut arcs: Vec<usize> = rings
             .iter()
@@ -185,10 +175,14 @@ fn arc_pairs(graph: &ArcGraph, groups: &[Vec<usize>]) -> Vec<(usize, usize)> {
             .collect();
         arcs.sort_unstable();
         arcs.dedup();
-        add_all(&arcs);
+        pairs.extend(drawn.near_pairs(&arcs, grow));
     }
     for arcs in at_vertex.values() {
-        add_all(arcs);
+        for (i, &a) in arcs.iter().enumerate() {
+            for &b in &arcs[i..] {
+                pairs.insert((a.min(b), a.max(b)));
+            }
+        }
     }
     pairs.into_iter().collect()
 }

@@ -39,9 +39,11 @@
 
 pub mod arcs;
 
-/// How many times an arc that crosses a neighbouring arc (or itself) is refitted at half its
-/// tolerance before the crossing is reported as left (`crossings_left`).
-pub const TIGHTEN_ROUNDS: usize = 3;
+/// How many times a line (a shared arc, a ring fitted per feature) that meets a neighbour (or
+/// itself) where its input did not is refitted tighter ([`crate::earth::validity::tightened`]:
+/// T/2, T/4, T/16, T/64, then as written from the input) before a meeting is reported as left
+/// (`crossings_left`).
+pub const TIGHTEN_ROUNDS: usize = 5;
 
 use super::antimeridian;
 use super::area;
@@ -61,12 +63,11 @@ use crate::sphere::compress::tolerance::{
 use crate::sphere::fit::adaptive_knots::{turning_angles, CORNER_ANGLE_RAD};
 use crate::sphere::fit::metrics::pointwise_errors;
 use crate::sphere::fit::seam::close_seam;
-use crate::sphere::geometry::crossing::polylines_cross;
 use crate::sphere::{PointSet, SphericalBSpline};
 use arcs::{ArcGraph, ArcUse, InputRing};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
-use std::collections::{BTreeSet, HashSet};
+use std::collections::BTreeSet;
 
 pub use super::job::{OutputFormat, Topology};
 

@@ -98,11 +98,32 @@ struct RunBoxes {
     levels: Vec<Vec<Box3>>,
 }
 
+/// How two segments are judged: the margin a segment bulges out of its chord's box, and
+/// whether two segments (sharing no end) meet. Great-circle arcs on S^2 are
+/// [`GREAT_CIRCLE`]; a caller with another geometry of the same points (planar longitude and
+/// latitude as a GIS draws them, in the Earth layer) brings its own.
+#[derive(Clone, Copy, Debug)]
+pub struct SegmentTest {
+    /// The margin to grow the box of the segment between two points by.
+    pub margin: fn(&[f64; 3], &[f64; 3]) -> f64,
+    /// Whether segments `a-b` and `c-d` meet.
+    pub meets: SegmentPredicate,
+}
+
+/// Whether segments `a-b` and `c-d` meet.
+pub type SegmentPredicate = fn(&[f64; 3], &[f64; 3], &[f64; 3], &[f64; 3]) -> bool;
+
+/// Great-circle segments of unit vectors, crossing as [`segments_cross`] says.
+pub const GREAT_CIRCLE: SegmentTest = SegmentTest {
+    margin: sagitta,
+    meets: segments_cross,
+};
+
 impl RunBoxes {
-    fn of(points: &[[f64; 3]]) -> RunBoxes {
+    fn of(points: &[[f64; 3]], margin: fn(&[f64; 3], &[f64; 3]) -> f64) -> RunBoxes {
         let segments: Vec<Box3> = points
             .windows(2)
-            .map(|w| Box3::of(&[w[0], w[1]]).grown(sagitta(&w[0], &w[1])))
+            .map(|w| Box3::of(&[w[0], w[1]]).grown(margin(&w[0], &w[1])))
             .collect();
         let mut levels = vec![segments];
         while levels.last().is_some_and(|l| l.len() > 1) {
@@ -138,31 +159,44 @@ impl RunBoxes {
 /// segment by segment with every other (that quadratic scan was 57 % of a coverage fit of the
 /// 10m countries).
 pub fn polylines_cross(p: &[[f64; 3]], q: &[[f64; 3]], same: bool) -> bool {
+    polylines_meet(p, q, same, GREAT_CIRCLE)
+}
+
+/// As [`polylines_cross`], with segments judged by `test`.
+pub fn polylines_meet(p: &[[f64; 3]], q: &[[f64; 3]], same: bool, test: SegmentTest) -> bool {
     if p.len() < 2 || q.len() < 2 {
         return false;
     }
-    let bp = RunBoxes::of(p);
+    let bp = RunBoxes::of(p, test.margin);
     let owned;
     let bq = if same {
         &bp
     } else {
-        owned = RunBoxes::of(q);
+        owned = RunBoxes::of(q, test.margin);
         &owned
     };
     let (tp, tq) = (bp.top(), bq.top());
-    runs_cross(p, q, same, &bp, bq, (tp, 0), (tq, 0))
+    runs_cross(Pair { p, q, same, test }, &bp, bq, (tp, 0), (tq, 0))
+}
+
+/// The two polylines compared, whether they are one, and how segments are judged.
+#[derive(Clone, Copy)]
+struct Pair<'a> {
+    p: &'a [[f64; 3]],
+    q: &'a [[f64; 3]],
+    same: bool,
+    test: SegmentTest,
 }
 
 /// Whether a segment of run `(lp, ip)` of `p` crosses one of run `(lq, iq)` of `q`.
 fn runs_cross(
-    p: &[[f64; 3]],
-    q: &[[f64; 3]],
-    same: bool,
+    pair: Pair<'_>,
     bp: &RunBoxes,
     bq: &RunBoxes,
     (lp, ip): (usize, usize),
     (lq, iq): (usize, usize),
 ) -> bool {
+    let Pair { p, q, same, test } = pair;
     // Within one polyline only pairs j >= i + 2 count.
     if same && bq.last(lq, iq) < RunBoxes::first(lp, ip) + 2 {
         return false;
@@ -177,19 +211,19 @@ fn runs_cross(
         if a == c || a == d || b == c || b == d {
             return false;
         }
-        return segments_cross(a, b, c, d);
+        return (test.meets)(a, b, c, d);
     }
     // Split the larger run (the one higher up); its halves, when there.
     if lp >= lq {
         (0..2)
             .map(|h| 2 * ip + h)
             .filter(|&i| i < bp.levels[lp - 1].len())
-            .any(|i| runs_cross(p, q, same, bp, bq, (lp - 1, i), (lq, iq)))
+            .any(|i| runs_cross(pair, bp, bq, (lp - 1, i), (lq, iq)))
     } else {
         (0..2)
             .map(|h| 2 * iq + h)
             .filter(|&j| j < bq.levels[lq - 1].len())
-            .any(|j| runs_cross(p, q, same, bp, bq, (lp, ip), (lq - 1, j)))
+            .any(|j| runs_cross(pair, bp, bq, (lp, ip), (lq - 1, j)))
     }
 }
 
