@@ -275,16 +275,26 @@ pub fn distance_to_arc(q: &[f64], a: &[f64], b: &[f64]) -> f64 {
 /// Posts `body` as GeoJSON to `uri` of a fresh router with the default configuration, through
 /// `oneshot`; returns the status, the content type and the body as JSON.
 pub fn post_geo_oneshot(uri: &str, body: &serde_json::Value) -> (u16, String, serde_json::Value) {
+    post_geo_oneshot_with(spherefit::service::ServiceConfig::default(), uri, body)
+}
+
+/// As [`post_geo_oneshot`], to a router with `config` (a whole dataset over the default body
+/// limit, say).
+pub fn post_geo_oneshot_with(
+    config: spherefit::service::ServiceConfig,
+    uri: &str,
+    body: &serde_json::Value,
+) -> (u16, String, serde_json::Value) {
     use axum::body::Body;
     use axum::http::{header, Request};
-    use spherefit::service::{router, AppState, ServiceConfig};
+    use spherefit::service::{router, AppState};
     use tower::ServiceExt;
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .unwrap();
     rt.block_on(async {
-        let app = router(AppState::new(ServiceConfig::default()));
+        let app = router(AppState::new(config));
         let req = Request::builder()
             .method("POST")
             .uri(uri)

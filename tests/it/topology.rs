@@ -955,7 +955,7 @@ fn planar_meetings(geometry: &Value, decimals: i32) -> usize {
 }
 
 /// The Natural Earth 10m countries of npm `world-atlas` at 100 m and 1 km, per feature and
-/// shared: every feature back, every ring of at least 4 positions, and no ring of the output
+/// shared, through the CLI (and the service at 1 km): every feature back, every ring of at least 4 positions, and no ring of the output
 /// crossing or touching itself or another ring of its feature wherever the input's rings
 /// (written at the output's 7 decimals) do not — islands off a coast (New Caledonia, the
 /// Faroes), the Curonian Spit and Lithuania's coast, and the Cayman Islands' ring, whose
@@ -978,7 +978,12 @@ fn world_atlas_10m_countries_come_back_valid_wherever_the_input_is() {
         .collect();
     let n_judged = judged.iter().filter(|j| **j).count();
     assert!(n_judged >= 190, "{n_judged} of {} judged", features.len());
+    let config = spherefit::service::ServiceConfig {
+        max_body_bytes: 64 << 20,
+        ..Default::default()
+    };
     for tolerance in ["100", "1000"] {
+        let mut outputs = Vec::new();
         for mode in ["per-feature", "shared"] {
             let o = run_spherefit(
                 &[
@@ -993,15 +998,31 @@ fn world_atlas_10m_countries_come_back_valid_wherever_the_input_is() {
                 None,
             );
             assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-            let out: Value = serde_json::from_slice(&o.stdout).unwrap();
+            outputs.push((
+                format!("CLI {mode}"),
+                serde_json::from_slice(&o.stdout).unwrap(),
+            ));
+        }
+        // The service, at 1 km (the same code; the whole dataset in one request).
+        if tolerance == "1000" {
+            for mode in ["per-feature", "shared"] {
+                let uri = format!("/v1/fit?tolerance_m={tolerance}&topology={mode}");
+                let (status, _, body) =
+                    crate::helpers::post_geo_oneshot_with(config.clone(), &uri, &input);
+                assert_eq!(status, 200, "{body}");
+                outputs.push((format!("HTTP {mode}"), body));
+            }
+        }
+        for (how, out) in &outputs {
             let out = out["features"].as_array().unwrap();
-            assert_eq!(out.len(), features.len(), "{mode} {tolerance} m");
+            assert_eq!(out.len(), features.len(), "{how} {tolerance} m");
             let mut bad = Vec::new();
             for (i, (f, o)) in features.iter().zip(out).enumerate() {
+                assert_eq!(f["properties"]["name"], o["properties"]["name"], "{how}");
                 for ring in polygons(&o["geometry"]).iter().flatten() {
                     assert!(
                         ring.len() >= 4,
-                        "{mode} {tolerance} m: feature {i}: {ring:?}"
+                        "{how} {tolerance} m: feature {i}: {ring:?}"
                     );
                 }
                 if judged[i] && planar_meetings(&o["geometry"], 7) > 0 {
@@ -1010,7 +1031,7 @@ fn world_atlas_10m_countries_come_back_valid_wherever_the_input_is() {
             }
             assert!(
                 bad.is_empty(),
-                "{mode} at {tolerance} m: rings meet in {bad:?}"
+                "{how} at {tolerance} m: rings meet in {bad:?}"
             );
         }
     }
