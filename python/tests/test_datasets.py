@@ -1,4 +1,5 @@
-"""Whole datasets back whole: Natural Earth's 110m countries as GIS packages ship them.
+"""Whole datasets back whole: Natural Earth's 110m countries as GIS packages ship them, and
+the world-atlas 10m countries.
 
 pyogrio's `naturalearth_lowres` shapefile (the file geopandas shipped before 1.0) cuts Fiji and
 Russia at ±180 and closes Antarctica along the South Pole. Converted by GDAL
@@ -10,15 +11,18 @@ coordinate out of range is.
 """
 
 import json
+import os
+import subprocess
 from pathlib import Path
 
 import geopandas as gpd
+import numpy as np
 import pyogrio
 import pytest
 import shapely
 
 import spherefit
-from conftest import FIXTURES, run_cli
+from conftest import FIXTURES, ROOT, run_cli
 
 SHAPEFILE = (
     Path(pyogrio.__file__).parent
@@ -76,3 +80,52 @@ def test_natural_earth_countries_from_a_shapefile_come_back_whole(
         got = out.geometry.iloc[i]
         want = shapely.geometry.shape(f["geometry"])
         assert shapely.equals_exact(got, want, tolerance=1e-9), (i, f["properties"]["name"])
+
+
+@pytest.fixture(scope="module")
+def world_atlas_10m(tmp_path_factory):
+    """npm world-atlas's Natural Earth 10m countries, decoded by topojson-client (as the Rust
+    tests decode them: `scripts/coverage/topojson_read.mjs`, needs `npm ci --prefix
+    scripts/coverage`, which .ci/run does)."""
+    script = ROOT / "scripts" / "coverage" / "topojson_read.mjs"
+    installed = (ROOT / "scripts" / "coverage" / "node_modules" / "world-atlas").exists()
+    if not installed:
+        if os.environ.get("SPHEREFIT_TEST_TOOLS") == "required":
+            pytest.fail("world-atlas is not installed: npm ci --prefix scripts/coverage")
+        pytest.skip("world-atlas (npm ci --prefix scripts/coverage) is not installed")
+    out = tmp_path_factory.mktemp("world-atlas") / "countries-10m.geojson"
+    subprocess.run(
+        ["node", str(script), "world-atlas", "countries-10m", str(out)], check=True
+    )
+    return out
+
+
+def _as_written(geometry, decimals=7):
+    """The geometry with its coordinates rounded as the output writes them."""
+    return shapely.transform(geometry, lambda c: np.round(c, decimals))
+
+
+@pytest.mark.parametrize("topology", ["per-feature", "shared"])
+@pytest.mark.parametrize("tolerance_m", [100, 1000])
+def test_world_atlas_10m_countries_come_back_whole_and_valid(
+    world_atlas_10m, tolerance_m, topology
+):
+    """Every row back, every ring of at least 4 positions, and every polygon valid for shapely
+    wherever the input, written at the output's 7 decimals, is (54 of the 255 input features
+    are invalid as topojson-client decodes them; spherefit does not repair them)."""
+    gdf = gpd.read_file(world_atlas_10m)
+    assert len(gdf) == 255
+    out = spherefit.fit(gdf, tolerance_m=tolerance_m, topology=topology)
+    assert len(out) == len(gdf)
+    assert out["name"].tolist() == gdf["name"].tolist()
+    assert not out.geometry.isna().any()
+    rings = shapely.get_rings(shapely.get_parts(out.geometry.values))
+    assert (shapely.get_num_coordinates(rings) >= 4).all()
+    valid_in = shapely.is_valid(_as_written(gdf.geometry.values))
+    assert valid_in.sum() >= 190, valid_in.sum()
+    valid_out = shapely.is_valid(out.geometry.values)
+    broken = {
+        gdf["name"].iloc[i]: shapely.is_valid_reason(out.geometry.iloc[i])
+        for i in np.flatnonzero(valid_in & ~valid_out)
+    }
+    assert not broken, broken
