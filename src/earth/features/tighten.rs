@@ -5,6 +5,7 @@ use super::*;
 use crate::earth::lonlat::m_to_rad;
 use crate::earth::topology::TIGHTEN_ROUNDS;
 use crate::earth::validity::{tighten, Drawn};
+use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
 
 /// Validity: the fitted rings of one feature (exterior rings, holes, the polygons of a
 /// MultiPolygon) must not meet themselves or each other where the input's rings did not, on
@@ -50,13 +51,26 @@ pub(super) fn tighten_crossing_rings(
         |i, t| {
             let _scope = job.cancel.enter();
             let c = &jobs[i];
-            let out =
+            let mut out =
                 fit_line_to_tolerance(c.line(), options, t, c.times.as_ref(), output_spec(job))?;
+            job_tolerance_met(&mut out, *tolerance_m);
             // A refit that collapsed (or shrank below a triangle) keeps the earlier fit.
             Ok::<_, EarthError>((!small_rings::collapsed(&out, precision)).then_some(out))
         },
     )?;
     Ok(())
+}
+
+/// A ring refitted tighter reports `tolerance_m` as what it was fitted to, and
+/// `tolerance_met` against the job's tolerance (the promise the user asked for): the last
+/// refit aims at a centimetre, which rounding to 7 decimals alone can exceed, and a ring within
+/// 2 cm of its input meets a 100 m tolerance.
+fn job_tolerance_met(out: &mut CurveOutput, tolerance_m: f64) {
+    let f = &mut out.report.fields;
+    let m = |k: &str| f.get(k).and_then(Value::as_f64).unwrap_or(f64::INFINITY);
+    let worst = m("max_error_m").max(m("two_way_distance_m"));
+    let long = m("curve_length_ratio") > MAX_LENGTH_RATIO;
+    f.insert("tolerance_met".into(), json!(worst <= tolerance_m && !long));
 }
 
 /// A ring's positions as unit vectors (positions that are not two numbers are skipped: they
