@@ -132,7 +132,8 @@ pub(crate) fn run(cmd: SphereCommand) -> Result<(), Failure> {
     }
 }
 
-/// The options in `given` that are given, for [`check_given_together`].
+/// The names of the options marked given (a flag on the command line), for
+/// [`check_given_together`].
 fn given<const N: usize>(options: [(&'static str, bool); N]) -> Vec<&'static str> {
     options
         .into_iter()
@@ -244,12 +245,12 @@ fn sphere_failure(e: &SphereError, points: &str) -> Failure {
 }
 
 fn evaluate_cmd(a: EvaluateArgs) -> Result<(), Failure> {
-    let v = read_json(a.file.as_ref())?;
     check_given_together(&given([
         ("samples", a.samples.is_some()),
         ("at", a.at.is_some()),
     ]))
     .map_err(|e| Failure::option(e.into()))?;
+    let v = read_json(a.file.as_ref())?;
     let curve = curve_from_json(&v).map_err(Failure::input)?;
     let samples = a.samples.unwrap_or(DEFAULT_SAMPLES);
     let ts = match a.at {
