@@ -50,7 +50,8 @@ def fit(
     e.g. timestamps) one non-decreasing value per point. Returns the CLI's document:
     ``{"spline": {"degree", "knots", "control_points"}, "parameters", "metrics": {max, mean,
     rms error in radians, iterations, converged}, "history"}``; with ``tolerance_rad``, a fit to
-    that tolerance whose document has ``"tolerance"`` instead of ``"history"``.
+    that tolerance whose document has ``"tolerance"`` instead of ``"history"`` (not with
+    ``control_points`` or ``target_max_error_rad``: the tolerance fit chooses its own).
 
     Raises :class:`SpherefitError` naming the point (``/points/3/1``) or the option.
     """

@@ -24,7 +24,7 @@ use spherefit::earth::{
 };
 use spherefit::sphere::cancel::Cancel;
 use spherefit::sphere::curve::even_parameters;
-use spherefit::sphere::fit::options_check::check_tolerance_fit;
+use spherefit::sphere::fit::options_check::{check_given_together, check_tolerance_fit};
 use spherefit::sphere::{
     fit, fit_to_tolerance, interpolate, BetaSolver, FitOptions, InputSite, InterpolationOptions,
     KnotPlacement, Parameterization, PointSet, Solver, SphereError, SphericalCurve, StepRule,
@@ -647,7 +647,15 @@ fn sphere_fit(
         options.control_points = control_points;
         spherefit::earth::check_target_max_error_rad(target_max_error_rad)
             .map_err(option_failure)?;
-        check_tolerance_fit(tolerance_rad, control_points).map_err(|e| option_failure(e.into()))?;
+        // knots, iterations, step and solver have defaults here, so only these tell if given.
+        let given = [
+            ("control_points", control_points.is_some()),
+            ("target_max_error_rad", target_max_error_rad.is_some()),
+            ("tolerance_rad", tolerance_rad.is_some()),
+        ];
+        let given: Vec<&str> = given.iter().filter(|(_, g)| *g).map(|(n, _)| *n).collect();
+        check_given_together(&given).map_err(|e| option_failure(e.into()))?;
+        check_tolerance_fit(tolerance_rad).map_err(|e| option_failure(e.into()))?;
         options.target_max_error_rad = target_max_error_rad;
         let points = point_set(&data, m, d)?;
         if let Some(tolerance_rad) = tolerance_rad {

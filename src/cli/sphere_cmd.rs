@@ -5,6 +5,7 @@ use crate::document::pointer;
 use crate::document::{curve_from_json, InterpolationDocument};
 use crate::document::{tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::sphere::compress::tolerance::{fit_to_tolerance, ToleranceOptions};
+use crate::sphere::fit::options_check::{check_given_together, check_tolerance_fit};
 use crate::sphere::SphericalCurve;
 use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, Solver, StepRule};
 use crate::sphere::{interpolate, BetaSolver, InputSite, InterpolationOptions, SphereError};
@@ -14,6 +15,9 @@ use std::path::PathBuf;
 /// Most points `evaluate --samples` writes: about 1 GB of JSON on S^2; beyond that the output
 /// is no longer a document anyone can read, and a typo must not exhaust memory.
 const MAX_SAMPLES: usize = 10_000_000;
+
+/// Points `evaluate` writes without `--samples` or `--at`, as the service.
+const DEFAULT_SAMPLES: usize = 101;
 
 #[derive(Debug, Subcommand)]
 pub(crate) enum SphereCommand {
@@ -77,29 +81,31 @@ pub(crate) struct FitArgs {
     /// Polynomial degree, 1 to 5
     #[arg(long, default_value_t = 3)]
     degree: usize,
-    /// Knot placement: geodesic (paper), euclidean or uniform
-    #[arg(long, default_value = "geodesic")]
-    knots: KnotPlacement,
-    /// Maximum number of GLS-PIA iterations (the paper uses 30)
-    #[arg(long, default_value_t = 30)]
-    iterations: usize,
+    /// Knot placement: geodesic (paper), euclidean or uniform [default: geodesic]
+    #[arg(long)]
+    knots: Option<KnotPlacement>,
+    /// Maximum number of GLS-PIA iterations (the paper uses 30) [default: 30]
+    #[arg(long)]
+    iterations: Option<usize>,
     /// Data parameters when none are given: chord (geodesic length), centripetal or uniform
     #[arg(long, default_value = "chord")]
     parameterization: Parameterization,
     /// Step size: deng-lin (per control point), global (1/λmax of AᵀA) or a number
-    #[arg(long, default_value = "deng-lin")]
-    step: StepRule,
+    /// [default: deng-lin]
+    #[arg(long)]
+    step: Option<StepRule>,
     /// Optimiser: gls-pia (the paper) or gauss-newton (the least-squares optimum in a few
-    /// passes)
-    #[arg(long, default_value = "gls-pia")]
-    solver: Solver,
+    /// passes) [default: gls-pia]
+    #[arg(long)]
+    solver: Option<Solver>,
     /// Stop early once the max error is at or below this, in radians
     #[arg(long)]
     target_max_error_rad: Option<f64>,
     /// Fit to a tolerance instead, in radians: every point within it of the curve, with as few
     /// stored numbers as the fitter finds (degree 1 to 3 chosen per input, control points and
-    /// knots found). The output then has a "tolerance" object instead of "history"
-    #[arg(long, conflicts_with_all = ["control_points", "knots", "iterations", "solver", "step", "target_max_error_rad"])]
+    /// knots found; not with --control-points, --knots, --iterations, --step, --solver or
+    /// --target-max-error-rad). The output then has a "tolerance" object instead of "history"
+    #[arg(long)]
     tolerance_rad: Option<f64>,
     /// Input JSON file; `-` or absent reads stdin
     file: Option<PathBuf>,
@@ -107,10 +113,11 @@ pub(crate) struct FitArgs {
 
 #[derive(Debug, Args)]
 pub(crate) struct EvaluateArgs {
-    /// Number of evenly spaced parameters over the curve's domain, ends included
-    #[arg(long, default_value_t = 101, conflicts_with = "at")]
-    samples: usize,
-    /// Comma-separated parameters to evaluate at (clamped to the domain)
+    /// Number of evenly spaced parameters over the curve's domain, ends included (not with
+    /// --at) [default: 101]
+    #[arg(long)]
+    samples: Option<usize>,
+    /// Comma-separated parameters to evaluate at (clamped to the domain; not with --samples)
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     at: Option<Vec<f64>>,
     /// Input JSON file; `-` or absent reads stdin
@@ -125,20 +132,41 @@ pub(crate) fn run(cmd: SphereCommand) -> Result<(), Failure> {
     }
 }
 
+/// The names of the options marked given (a flag on the command line), for
+/// [`check_given_together`].
+fn given<const N: usize>(options: [(&'static str, bool); N]) -> Vec<&'static str> {
+    options
+        .into_iter()
+        .filter_map(|(name, given)| given.then_some(name))
+        .collect()
+}
+
 fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
+    check_given_together(&given([
+        ("control_points", a.control_points.is_some()),
+        ("knots", a.knots.is_some()),
+        ("iterations", a.iterations.is_some()),
+        ("step", a.step.is_some()),
+        ("solver", a.solver.is_some()),
+        ("target_max_error_rad", a.target_max_error_rad.is_some()),
+        ("tolerance_rad", a.tolerance_rad.is_some()),
+    ]))
+    .map_err(|e| Failure::option(e.into()))?;
     crate::earth::check_target_max_error_rad(a.target_max_error_rad).map_err(Failure::option)?;
-    crate::sphere::fit::options_check::check_tolerance_fit(a.tolerance_rad, a.control_points)
-        .map_err(|e| Failure::option(e.into()))?;
+    check_tolerance_fit(a.tolerance_rad).map_err(|e| Failure::option(e.into()))?;
     let input = PointsInput::from_json(&read_json(a.file.as_ref())?).map_err(Failure::input)?;
-    let mut options = FitOptions::default()
-        .with_degree(a.degree)
-        .with_knots(a.knots)
-        .with_iterations(a.iterations)
-        .with_parameterization(a.parameterization)
-        .with_step(a.step)
-        .with_solver(a.solver);
-    options.control_points = a.control_points;
-    options.target_max_error_rad = a.target_max_error_rad;
+    let d = FitOptions::default();
+    let options = FitOptions {
+        control_points: a.control_points,
+        degree: a.degree,
+        knots: a.knots.unwrap_or(d.knots),
+        iterations: a.iterations.unwrap_or(d.iterations),
+        parameterization: a.parameterization,
+        step: a.step.unwrap_or(d.step),
+        solver: a.solver.unwrap_or(d.solver),
+        target_max_error_rad: a.target_max_error_rad,
+        ..d
+    };
     if let Some(tolerance_rad) = a.tolerance_rad {
         return tolerance_cmd(&input, tolerance_rad, a.degree, a.parameterization);
     }
@@ -217,8 +245,14 @@ fn sphere_failure(e: &SphereError, points: &str) -> Failure {
 }
 
 fn evaluate_cmd(a: EvaluateArgs) -> Result<(), Failure> {
+    check_given_together(&given([
+        ("samples", a.samples.is_some()),
+        ("at", a.at.is_some()),
+    ]))
+    .map_err(|e| Failure::option(e.into()))?;
     let v = read_json(a.file.as_ref())?;
     let curve = curve_from_json(&v).map_err(Failure::input)?;
+    let samples = a.samples.unwrap_or(DEFAULT_SAMPLES);
     let ts = match a.at {
         Some(ts) => {
             if let Some(i) = ts.iter().position(|t| !t.is_finite()) {
@@ -228,18 +262,17 @@ fn evaluate_cmd(a: EvaluateArgs) -> Result<(), Failure> {
             }
             ts
         }
-        None if a.samples == 0 => {
+        None if samples == 0 => {
             return Err(Failure::input(
                 "--samples: 0 points: give at least 1 (the service says the same)",
             ))
         }
-        None if a.samples > MAX_SAMPLES => {
+        None if samples > MAX_SAMPLES => {
             return Err(Failure::input(format!(
-                "--samples: {} is more than the {MAX_SAMPLES} points one document may hold",
-                a.samples
+                "--samples: {samples} is more than the {MAX_SAMPLES} points one document may hold"
             )))
         }
-        None => crate::sphere::curve::even_parameters(curve.domain(), a.samples),
+        None => crate::sphere::curve::even_parameters(curve.domain(), samples),
     };
     let pts = curve.evaluate_many(&ts);
     write_json(&SamplesDocument {

@@ -279,6 +279,7 @@ fn sphere_fit_options(
     let p = Params::new(pairs, query::SPHERE_FIT_PARAMS)?;
     let mut options = fit_options(&p, crate::sphere::FitOptions::default())?;
     options.target_max_error_rad = p.num("target_max_error_rad")?;
+    query::sphere_given_together(&p)?;
     let tolerance_rad = query::sphere_tolerance(&p)?;
     crate::earth::check_fit_options(&options, &config.limits)?;
     Ok((options, tolerance_rad))
@@ -416,7 +417,8 @@ pub(super) async fn sphere_evaluate(req: PostRequest) -> Result<Response, ApiErr
     Ok(respond(JSON, out))
 }
 
-/// The query of `/v1/sphere/evaluate`: explicit parameters, or the number of samples.
+/// The query of `/v1/sphere/evaluate`: explicit parameters, or the number of samples (not
+/// both).
 #[allow(clippy::type_complexity)]
 fn sphere_evaluate_options(
     config: &ServiceConfig,
@@ -448,6 +450,7 @@ fn sphere_evaluate_options(
             Some(ts)
         }
     };
+    query::sphere_given_together(&p)?;
     let count = at.as_ref().map_or(samples.unwrap_or(101), Vec::len);
     if count > max || (at.is_none() && count < 1) {
         let name = if at.is_some() { "at" } else { "samples" };

@@ -53,6 +53,12 @@ impl Params {
         Ok(Params { map })
     }
 
+    /// The names of the parameters given, for
+    /// [`crate::sphere::fit::options_check::check_given_together`].
+    pub fn given(&self) -> Vec<&str> {
+        self.map.keys().map(String::as_str).collect()
+    }
+
     /// The parsed value of `name`, if given.
     ///
     /// # Errors
@@ -154,12 +160,19 @@ pub fn fit_options(p: &Params, base: FitOptions) -> Result<FitOptions, ApiError>
 /// [`crate::sphere::fit::options_check::check_tolerance_fit`].
 ///
 /// # Errors
-/// 400 when it does not parse; 422 when it is not a positive number or comes with
-/// `control_points`.
+/// 400 when it does not parse; 422 when it is not a positive number.
 pub fn sphere_tolerance(p: &Params) -> Result<Option<f64>, ApiError> {
-    let t = p.num("tolerance_rad")?;
-    let checked =
-        crate::sphere::fit::options_check::check_tolerance_fit(t, p.int("control_points")?);
+    let checked = crate::sphere::fit::options_check::check_tolerance_fit(p.num("tolerance_rad")?);
+    Ok(checked.map_err(crate::earth::EarthError::from)?)
+}
+
+/// Refuses S^n options given together that exclude each other, as
+/// [`crate::sphere::fit::options_check::check_given_together`] says.
+///
+/// # Errors
+/// 422 `conflicting-options` naming the option that excludes the other.
+pub fn sphere_given_together(p: &Params) -> Result<(), ApiError> {
+    let checked = crate::sphere::fit::options_check::check_given_together(&p.given());
     Ok(checked.map_err(crate::earth::EarthError::from)?)
 }
 

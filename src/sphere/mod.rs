@@ -3,6 +3,39 @@
 //! Nothing here knows about GeoJSON, HTTP or metres; the Earth layer ([`crate::earth`]) builds
 //! on it. Every public result is a unit vector (|norm - 1| < 1e-12).
 
+/// `with_*` builder methods of an options struct, each setting the field it names and
+/// returning the struct: `with_degree(degree: usize);` sets `self.degree = degree`, and
+/// `with_max_control_points(max_control_points: usize) = Some;` wraps the value first.
+macro_rules! with_fields {
+    (@value $field:ident) => { $field };
+    (@value $field:ident $wrap:ident) => { $wrap($field) };
+    ($($(#[$doc:meta])* $method:ident($field:ident: $ty:ty) $(= $wrap:ident)?;)+) => {
+        $(
+            $(#[$doc])*
+            pub fn $method(mut self, $field: $ty) -> Self {
+                self.$field = with_fields!(@value $field $($wrap)?);
+                self
+            }
+        )+
+    };
+}
+
+/// `FromStr` for an enumeration of options by the names users write; any other name is
+/// refused with `unknown <what> "<name>": use <the names>`.
+macro_rules! from_names {
+    ($t:ident, $what:literal, $names:literal { $($name:literal => $variant:ident),+ $(,)? }) => {
+        impl std::str::FromStr for $t {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, String> {
+                match s {
+                    $($name => Ok($t::$variant),)+
+                    _ => Err(format!(concat!("unknown ", $what, " {:?}: use ", $names), s)),
+                }
+            }
+        }
+    };
+}
+
 pub mod cancel;
 pub mod certify;
 pub mod compress;

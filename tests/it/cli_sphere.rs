@@ -628,3 +628,39 @@ fn fit_to_a_tolerance_reports_what_it_met() {
         &["tolerance"],
     );
 }
+
+/// Options the other makes meaningless are refused, naming both, by the rule the service
+/// keeps too (`sphere::fit::options_check::check_given_together`).
+#[test]
+fn options_that_exclude_each_other_are_named() {
+    let e = run_invalid(
+        &[
+            "sphere",
+            "fit",
+            "--tolerance-rad",
+            "0.001",
+            "--solver",
+            "gauss-newton",
+            WAVY,
+        ],
+        None,
+        &["--tolerance-rad excludes --solver"],
+    );
+    assert!(e.contains("spherefit: --tolerance-rad: "), "{e}");
+    run_invalid(
+        &[
+            "sphere",
+            "evaluate",
+            "--samples",
+            "5",
+            "--at",
+            "0.5",
+            SPLINE,
+        ],
+        None,
+        &["--at: --at excludes --samples"],
+    );
+    // Each alone is fine.
+    run_ok(&["sphere", "fit", "--solver", "gauss-newton", WAVY], None);
+    run_ok(&["sphere", "evaluate", "--at", "0.5", SPLINE], None);
+}

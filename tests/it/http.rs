@@ -1254,6 +1254,26 @@ fn bad_cases() -> Vec<Bad> {
         "too-few-points",
         "",
     ));
+    // An option the other makes meaningless is refused, not ignored (one rule with the CLI:
+    // `sphere::fit::options_check::check_given_together`).
+    v.push(raw(
+        "S^n tolerance fit with knots",
+        "/v1/sphere/fit?tolerance_rad=1e-3&knots=uniform",
+        Some("application/json"),
+        br#"[[1, 0, 0], [0.8, 0.6, 0], [0, 1, 0], [0, 0.6, 0.8], [0, 0, 1]]"#,
+        422,
+        "conflicting-options",
+        "?tolerance_rad",
+    ));
+    v.push(raw(
+        "S^n evaluation at parameters and samples",
+        "/v1/sphere/evaluate?samples=5&at=0.5",
+        Some("application/json"),
+        include_bytes!("../../fixtures/sphere_cubic_spline.json"),
+        422,
+        "conflicting-options",
+        "?at",
+    ));
     v.push(raw(
         "S^n parameters decreasing",
         "/v1/sphere/fit?degree=1",

@@ -161,9 +161,12 @@ fn options_that_exclude_each_other_are_refused_once_naming_both() {
     }
     assert_eq!(
         refused(
-            crate::sphere::fit::options_check::check_tolerance_fit(Some(0.01), Some(5))
-                .map_err(EarthError::from)
-                .map(|_| fit(&[]).unwrap())
+            crate::sphere::fit::options_check::check_given_together(&[
+                "tolerance_rad",
+                "control_points"
+            ])
+            .map_err(EarthError::from)
+            .map(|_| fit(&[]).unwrap())
         ),
         ("tolerance_rad", "conflicting-options")
     );

@@ -82,19 +82,11 @@ impl Solver {
     }
 }
 
-impl std::str::FromStr for Solver {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "gls-pia" => Ok(Solver::GlsPia),
-            "gls-pia-accelerated" => Ok(Solver::GlsPiaAccelerated),
-            "gauss-newton" => Ok(Solver::GaussNewton),
-            _ => Err(format!(
-                "unknown solver {s:?}: use gls-pia-accelerated, gls-pia or gauss-newton"
-            )),
-        }
-    }
-}
+from_names!(Solver, "solver", "gls-pia-accelerated, gls-pia or gauss-newton" {
+    "gls-pia" => GlsPia,
+    "gls-pia-accelerated" => GlsPiaAccelerated,
+    "gauss-newton" => GaussNewton,
+});
 
 /// What to fit and how. `Default` is the paper's setting: cubic, geodesic-difference knots,
 /// chord-length parameters, Deng–Lin steps, 30 iterations.
@@ -175,55 +167,27 @@ impl FitOptions {
         self.target_max_error_rad
             .is_some_and(|e| max_error_rad <= e)
     }
-    /// Sets the number of control points.
-    pub fn with_control_points(mut self, n: usize) -> Self {
-        self.control_points = Some(n);
-        self
-    }
-    /// Sets the degree.
-    pub fn with_degree(mut self, p: usize) -> Self {
-        self.degree = p;
-        self
-    }
-    /// Sets the knot placement.
-    pub fn with_knots(mut self, k: KnotPlacement) -> Self {
-        self.knots = k;
-        self
-    }
-    /// Uses an explicit knot vector (its length fixes the number of control points).
-    pub fn with_knot_vector(mut self, k: Vec<f64>) -> Self {
-        self.knot_vector = Some(k);
-        self
-    }
-    /// Sets the parameterisation.
-    pub fn with_parameterization(mut self, p: Parameterization) -> Self {
-        self.parameterization = p;
-        self
-    }
-    /// Sets the maximum number of iterations.
-    pub fn with_iterations(mut self, n: usize) -> Self {
-        self.iterations = n;
-        self
-    }
-    /// Stops once the max error reaches this many radians.
-    pub fn with_target_max_error_rad(mut self, e: f64) -> Self {
-        self.target_max_error_rad = Some(e);
-        self
-    }
-    /// Sets the solver.
-    pub fn with_solver(mut self, s: Solver) -> Self {
-        self.solver = s;
-        self
-    }
-    /// Sets the step rule.
-    pub fn with_step(mut self, s: StepRule) -> Self {
-        self.step = s;
-        self
-    }
-    /// Turns foot-point parameter correction on or off.
-    pub fn with_parameter_correction(mut self, on: bool) -> Self {
-        self.parameter_correction = on;
-        self
+    with_fields! {
+        /// Sets the number of control points.
+        with_control_points(control_points: usize) = Some;
+        /// Sets the degree.
+        with_degree(degree: usize);
+        /// Sets the knot placement.
+        with_knots(knots: KnotPlacement);
+        /// Uses an explicit knot vector (its length fixes the number of control points).
+        with_knot_vector(knot_vector: Vec<f64>) = Some;
+        /// Sets the parameterisation.
+        with_parameterization(parameterization: Parameterization);
+        /// Sets the maximum number of iterations.
+        with_iterations(iterations: usize);
+        /// Stops once the max error reaches this many radians.
+        with_target_max_error_rad(target_max_error_rad: f64) = Some;
+        /// Sets the solver.
+        with_solver(solver: Solver);
+        /// Sets the step rule.
+        with_step(step: StepRule);
+        /// Turns foot-point parameter correction on or off.
+        with_parameter_correction(parameter_correction: bool);
     }
 }
 

@@ -45,34 +45,18 @@ pub enum KnotPlacement {
     Adaptive,
 }
 
-impl std::str::FromStr for Parameterization {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "chord" => Ok(Parameterization::Chord),
-            "centripetal" => Ok(Parameterization::Centripetal),
-            "uniform" => Ok(Parameterization::Uniform),
-            _ => Err(format!(
-                "unknown parameterization {s:?}: use chord, centripetal or uniform"
-            )),
-        }
-    }
-}
+from_names!(Parameterization, "parameterization", "chord, centripetal or uniform" {
+    "chord" => Chord,
+    "centripetal" => Centripetal,
+    "uniform" => Uniform,
+});
 
-impl std::str::FromStr for KnotPlacement {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "geodesic" => Ok(KnotPlacement::Geodesic),
-            "euclidean" => Ok(KnotPlacement::Euclidean),
-            "uniform" => Ok(KnotPlacement::Uniform),
-            "adaptive" => Ok(KnotPlacement::Adaptive),
-            _ => Err(format!(
-                "unknown knot placement {s:?}: use adaptive, geodesic, euclidean or uniform"
-            )),
-        }
-    }
-}
+from_names!(KnotPlacement, "knot placement", "adaptive, geodesic, euclidean or uniform" {
+    "geodesic" => Geodesic,
+    "euclidean" => Euclidean,
+    "uniform" => Uniform,
+    "adaptive" => Adaptive,
+});
 
 /// Smallest gap between neighbouring interior knots, as a fraction of the uniform spacing
 /// `1 / (N - p)`. Difference-based knots may pile up (on data made of great-circle arcs they

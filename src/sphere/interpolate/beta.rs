@@ -85,16 +85,10 @@ pub enum BetaSolver {
     Jacobi,
 }
 
-impl std::str::FromStr for BetaSolver {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "newton" => Ok(BetaSolver::Newton),
-            "jacobi" => Ok(BetaSolver::Jacobi),
-            _ => Err(format!("unknown solver {s:?}: use newton or jacobi")),
-        }
-    }
-}
+from_names!(BetaSolver, "solver", "newton or jacobi" {
+    "newton" => Newton,
+    "jacobi" => Jacobi,
+});
 
 /// Shape parameters and solver settings for [`interpolate`]. `Default`: `beta1 = 1`,
 /// `beta2 = 0` everywhere (the natural cubic spline in the small-data limit), Newton,
@@ -134,35 +128,22 @@ impl InterpolationOptions {
         self.beta1 = vec![beta1];
         self
     }
-    /// One `beta1` per point.
-    pub fn with_beta1_per_point(mut self, beta1: Vec<f64>) -> Self {
-        self.beta1 = beta1;
-        self
-    }
     /// The same `beta2` at every point.
     pub fn with_beta2(mut self, beta2: f64) -> Self {
         self.beta2 = vec![beta2];
         self
     }
-    /// One `beta2` per point.
-    pub fn with_beta2_per_point(mut self, beta2: Vec<f64>) -> Self {
-        self.beta2 = beta2;
-        self
-    }
-    /// Sets the solver.
-    pub fn with_solver(mut self, solver: BetaSolver) -> Self {
-        self.solver = solver;
-        self
-    }
-    /// Sets the iteration limit.
-    pub fn with_max_iterations(mut self, n: usize) -> Self {
-        self.max_iterations = Some(n);
-        self
-    }
-    /// Sets the accepted residual in radians.
-    pub fn with_tolerance_rad(mut self, tolerance_rad: f64) -> Self {
-        self.tolerance_rad = tolerance_rad;
-        self
+    with_fields! {
+        /// One `beta1` per point.
+        with_beta1_per_point(beta1: Vec<f64>);
+        /// One `beta2` per point.
+        with_beta2_per_point(beta2: Vec<f64>);
+        /// Sets the solver.
+        with_solver(solver: BetaSolver);
+        /// Sets the iteration limit.
+        with_max_iterations(max_iterations: usize) = Some;
+        /// Sets the accepted residual in radians.
+        with_tolerance_rad(tolerance_rad: f64);
     }
 }
 

@@ -69,15 +69,11 @@ impl Default for TwoWayOptions {
 }
 
 impl TwoWayOptions {
-    /// Sets the precision (radians).
-    pub fn with_precision_rad(mut self, p: f64) -> Self {
-        self.precision_rad = p;
-        self
-    }
-    /// Sets the evaluation budget.
-    pub fn with_max_evaluations(mut self, n: usize) -> Self {
-        self.max_evaluations = n;
-        self
+    with_fields! {
+        /// Sets the precision (radians).
+        with_precision_rad(precision_rad: f64);
+        /// Sets the evaluation budget.
+        with_max_evaluations(max_evaluations: usize);
     }
     /// Decides "D <= level?" instead of measuring D (see [`TwoWayOptions::decide_rad`]).
     pub fn deciding(mut self, level_rad: f64) -> Self {

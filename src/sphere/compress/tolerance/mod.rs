@@ -226,51 +226,25 @@ impl ToleranceOptions {
         self.degrees = degrees.to_vec();
         self
     }
-    /// Switches parameter correction on or off.
-    pub fn with_correct_parameters(mut self, on: bool) -> Self {
-        self.correct_parameters = on;
-        self
-    }
-    /// Switches knot removal on or off.
-    pub fn with_reduce(mut self, on: bool) -> Self {
-        self.reduce = on;
-        self
-    }
-    /// Switches Lawson reweighting in removals on or off.
-    pub fn with_reweight(mut self, on: bool) -> Self {
-        self.reweight = on;
-        self
-    }
-    /// Switches the uniform-knot candidates on or off.
-    pub fn with_uniform_knots(mut self, on: bool) -> Self {
-        self.uniform_knots = on;
-        self
-    }
-    /// Switches the stored-knot fits of degree >= 2 with free parameters on or off.
-    pub fn with_adaptive_knots(mut self, on: bool) -> Self {
-        self.adaptive_knots = on;
-        self
-    }
-    /// Sets the Douglas–Peucker seed factor.
-    pub fn with_seed_factor(mut self, f: f64) -> Self {
-        self.seed_factor = f;
-        self
-    }
-    /// Caps the number of control points.
-    pub fn with_max_control_points(mut self, n: usize) -> Self {
-        self.max_control_points = Some(n);
-        self
-    }
-    /// Pins (or frees) the end control points at the first and last point.
-    pub fn with_pin_ends(mut self, on: bool) -> Self {
-        self.pin_ends = on;
-        self
-    }
-
-    /// Switches the degree probe ([`ToleranceOptions::degree_probe`]) on or off.
-    pub fn with_degree_probe(mut self, on: bool) -> Self {
-        self.degree_probe = on;
-        self
+    with_fields! {
+        /// Switches parameter correction on or off.
+        with_correct_parameters(correct_parameters: bool);
+        /// Switches knot removal on or off.
+        with_reduce(reduce: bool);
+        /// Switches Lawson reweighting in removals on or off.
+        with_reweight(reweight: bool);
+        /// Switches the uniform-knot candidates on or off.
+        with_uniform_knots(uniform_knots: bool);
+        /// Switches the stored-knot fits of degree >= 2 with free parameters on or off.
+        with_adaptive_knots(adaptive_knots: bool);
+        /// Sets the Douglas–Peucker seed factor.
+        with_seed_factor(seed_factor: f64);
+        /// Caps the number of control points.
+        with_max_control_points(max_control_points: usize) = Some;
+        /// Pins (or frees) the end control points at the first and last point.
+        with_pin_ends(pin_ends: bool);
+        /// Switches the degree probe ([`ToleranceOptions::degree_probe`]) on or off.
+        with_degree_probe(degree_probe: bool);
     }
 }
 
