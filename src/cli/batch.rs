@@ -125,7 +125,6 @@ fn inputs(paths: &[PathBuf]) -> Result<Vec<Input>, Failure> {
     Ok(out)
 }
 
-/// True when `a` and `b` name the same existing file.
 /// A temporary name beside `path` (same directory, so the rename does not cross file
 /// systems): `.NAME.spherefit-PID.tmp`.
 fn temp_beside(path: &Path) -> PathBuf {
@@ -135,6 +134,16 @@ fn temp_beside(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.spherefit-{}.tmp", std::process::id()))
 }
 
+/// Whether `path` is written through a temporary file renamed into place: a new name or a
+/// regular file. Anything else is written where it is: a device or a FIFO (`-o /dev/null`,
+/// `-o /dev/stdout`), which a rename would replace with a plain file (run as root, that turned
+/// the machine's `/dev/null` into a file), and a symbolic link, which a rename would replace
+/// instead of writing the file it points to.
+fn written_via_temp(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).map_or(true, |m| m.file_type().is_file())
+}
+
+/// True when `a` and `b` name the same existing file.
 fn same_file(a: &Path, b: &Path) -> bool {
     match (a.canonicalize(), b.canonicalize()) {
         (Ok(x), Ok(y)) => x == y,
@@ -171,13 +180,15 @@ fn run(command: &'static str, job: Job, batch: BatchArgs) -> Result<(), Failure>
         .unwrap_or(Format::Geojson);
     // A file is written beside its name and renamed when the run did not fail, so a run cut
     // short by a fatal error leaves no complete-looking output (and an existing file as it was).
-    let temp_path = out_path.map(|p| temp_beside(p));
+    let temp_path = out_path
+        .filter(|p| written_via_temp(p))
+        .map(|p| temp_beside(p));
     let writer: Box<dyn Write> = match (out_path, &temp_path) {
-        (Some(p), Some(t)) => Box::new(
-            std::fs::File::create(t)
+        (Some(p), t) => Box::new(
+            std::fs::File::create(t.as_deref().unwrap_or(p))
                 .map_err(|e| Failure::input(format!("{}: {e}", p.display())))?,
         ),
-        _ => Box::new(io::stdout().lock()),
+        (None, _) => Box::new(io::stdout().lock()),
     };
     let mut sink = Sink::new(io::BufWriter::with_capacity(256 << 10, writer), out_format);
     let total_bytes = inputs.iter().map(|i| i.size).sum::<Option<u64>>();

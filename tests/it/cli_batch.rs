@@ -820,3 +820,35 @@ fn lines_and_rings_inside_a_geometry_collection_are_checked_like_the_fitted_ones
         assert!(e.contains(pointer) && e.contains(why), "{e}");
     }
 }
+
+/// `-o` through a symbolic link writes the file it points to and leaves the link a link (a
+/// rename into place would replace the link, or a device such as `/dev/null`, with a file).
+#[test]
+fn output_through_a_symbolic_link_writes_its_target() {
+    let dir = scratch("symlink_output");
+    let target = dir.join("target.geojson");
+    let link = dir.join("link.geojson");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let input = crate::helpers::fixture_path("us_mexico_border_natural_earth.geojson");
+    let o = run_spherefit(
+        &[
+            "fit",
+            "-q",
+            "--tolerance-m",
+            "100",
+            &input,
+            "-o",
+            link.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    let written = json_of(&std::fs::read(&target).unwrap());
+    assert_eq!(written["features"].as_array().unwrap().len(), 3);
+    // Nothing left beside it.
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2);
+}

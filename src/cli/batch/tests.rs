@@ -209,3 +209,19 @@ fn the_summary_reports_the_compression_ratio() {
     assert_eq!(s.json()["max_error_at"], "a: record 2");
     assert!(s.warning().is_none());
 }
+
+#[test]
+fn only_new_names_and_regular_files_are_written_through_a_temporary_file() {
+    let dir = std::env::temp_dir().join(format!("spherefit-out-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("out.geojson");
+    assert!(written_via_temp(&file), "a new name");
+    std::fs::write(&file, "{}").unwrap();
+    assert!(written_via_temp(&file), "a regular file");
+    let link = dir.join("link.geojson");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&file, &link).unwrap();
+    assert!(!written_via_temp(&link), "a symbolic link");
+    assert!(!written_via_temp(Path::new("/dev/null")), "a device");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
