@@ -170,7 +170,7 @@ pub fn sphere_tolerance(p: &Params) -> Result<Option<f64>, ApiError> {
 /// [`crate::sphere::fit::options_check::check_given_together`] says.
 ///
 /// # Errors
-/// 422 `conflicting-options` naming the option that excludes the other.
+/// The sphere rule's error, as problem+json naming the option that excludes the other.
 pub fn sphere_given_together(p: &Params) -> Result<(), ApiError> {
     let checked = crate::sphere::fit::options_check::check_given_together(&p.given());
     Ok(checked.map_err(crate::earth::EarthError::from)?)
