@@ -121,6 +121,122 @@ pub(crate) fn triangle_speed_bound(
     speed[p] * (1.0 + SPEED_SLACK)
 }
 
+/// Largest angle between two SLERPed nodes for which [`triangle_acceleration_bound`] gives a
+/// finite bound: its constants use `sin(theta) >= 2 theta / pi`, true up to pi / 2.
+const ACCEL_THETA_LIMIT_RAD: f64 = std::f64::consts::FRAC_PI_2;
+
+/// Relative slack on acceleration bounds (rounding, as [`SPEED_SLACK`]): the deviation bound
+/// grows only linearly with it, so it can be generous.
+const ACCEL_SLACK: f64 = 1e-9;
+
+/// An upper bound of |C''(t)| in the ambient space R^(n+1) over `t in [a, b]` of the apex of a
+/// SLERP triangle (the same triangle as [`triangle_speed_bound`], `width = b - a`), or infinity
+/// when an angle between two nodes may pass pi / 2 on the interval.
+///
+/// A node is `x = g(alpha, theta) x_l + f(alpha, theta) x_r` with `f = sin(alpha theta) / sin
+/// theta`, `g = f(1 - alpha, theta)` and theta the angle between the nodes below. Differentiating
+/// twice (alpha is affine in t, slope m) and bounding each term (derivations in
+/// `docs/certified-distance.md`, "Acceleration bound"), with V, A the speed and acceleration
+/// bounds of the nodes below, Theta the angle bound over the interval, S = Theta / sin Theta,
+/// `V_theta = V_l + V_r` (the angle is 1-Lipschitz in each end) and
+/// `Q = V_theta^2 + 2 (1 - cos Theta) V_l V_r`:
+///
+/// `A_x <= Theta^2 m^2 + (10/3) m V_theta Theta S^2 + (3/4) V_theta^2 (S + 2 S^3 / 3)
+///         + (1/4)(Theta S^2 (A_l + A_r) + S^3 Q) + 2 (V_l + V_r)(S m + 0.13 Theta S^2 V_theta)
+///         + w0 A_l + w1 A_r`
+///
+/// For a straight de Boor step (Theta -> 0) this is the affine `(1 - alpha) A_l + alpha A_r +
+/// 2 m (V_l + V_r)` plus the terms of the sphere's curvature. Level 0 points do not move.
+pub(crate) fn triangle_acceleration_bound(
+    dim: usize,
+    control: &[f64],
+    alpha: impl Fn(usize, usize) -> NodeAlpha,
+    width: f64,
+    scratch: &mut Vec<f64>,
+) -> f64 {
+    let m_pts = control.len() / dim;
+    let p = m_pts - 1;
+    scratch.clear();
+    scratch.extend_from_slice(control);
+    let mut speed = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
+    let mut accel = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
+    let d = Dynamic(dim);
+    let mut tmp = [0.0f64; 16];
+    let mut tmp_heap = Vec::new();
+    let tmp: &mut [f64] = if dim <= 16 {
+        &mut tmp[..dim]
+    } else {
+        tmp_heap.resize(dim, 0.0);
+        &mut tmp_heap
+    };
+    for r in 1..=p {
+        for j in (r..=p).rev() {
+            let (left, right) = scratch.split_at_mut(j * dim);
+            let a = &left[(j - 1) * dim..j * dim];
+            let b = &mut right[..dim];
+            let (va, vb, aa, ab) = (speed[j - 1], speed[j], accel[j - 1], accel[j]);
+            let v_theta = va + vb;
+            let theta = angle_between(a, b) + v_theta * width;
+            if theta >= ACCEL_THETA_LIMIT_RAD || !theta.is_finite() {
+                return f64::INFINITY;
+            }
+            let na = alpha(r, j);
+            let lo = na.at_start.min(na.at_end).clamp(0.0, 1.0);
+            let hi = na.at_start.max(na.at_end).clamp(0.0, 1.0);
+            let w0 = weight0(lo, theta);
+            let w1 = weight0(1.0 - hi, theta);
+            let m = na.slope.abs();
+            let s = if theta < 1e-8 {
+                1.0
+            } else {
+                theta / theta.sin()
+            };
+            let s2 = s * s;
+            let s3 = s2 * s;
+            let q = v_theta * v_theta + 2.0 * (1.0 - theta.cos()) * va * vb;
+            accel[j] = theta * theta * m * m
+                + (10.0 / 3.0) * m * v_theta * theta * s2
+                + 0.75 * v_theta * v_theta * (s + 2.0 * s3 / 3.0)
+                + 0.25 * (theta * s2 * (aa + ab) + s3 * q)
+                + 2.0 * (va + vb) * (s * m + 0.13 * theta * s2 * v_theta)
+                + w0 * aa
+                + w1 * ab;
+            speed[j] = w0 * va + w1 * vb + theta * m;
+            let st = na.at_start.clamp(0.0, 1.0);
+            let arc = crate::sphere::geometry::point::Arc::between(d, a, b);
+            let (v0, v1) = arc.weights_unit(st);
+            for c in 0..dim {
+                tmp[c] = v0 * a[c] + v1 * b[c];
+            }
+            let n = dot(d, tmp, tmp).sqrt();
+            for c in 0..dim {
+                b[c] = tmp[c] / n;
+            }
+        }
+    }
+    accel[p] * (1.0 + ACCEL_SLACK)
+}
+
+/// How far the curve piece over a parameter interval of `width`, whose ambient acceleration
+/// is at most `accel` and whose ends are `chord` apart, can be from the great-circle arc
+/// joining its ends (both ways), or infinity.
+///
+/// The piece is within `accel width^2 / 8` (Euclidean) of the straight segment between its
+/// ends at the same parameter (linear interpolation's error, from the Green's function of the
+/// second derivative), and the segment's point is within `1 - cos(chord / 2)` of its radial
+/// projection on the arc; the projection runs over the whole arc, so the bound holds both ways.
+/// Unlike [`ellipse_deviation`] it falls with the square of the width, not its 3/2 power.
+pub fn acceleration_deviation(accel: f64, width: f64, chord: f64) -> f64 {
+    if !(accel.is_finite() && chord < std::f64::consts::FRAC_PI_2) {
+        return f64::INFINITY;
+    }
+    let e = accel * width * width / 8.0 + 2.0 * (chord / 4.0).sin().powi(2);
+    if e >= 2.0 {
+        return std::f64::consts::PI;
+    }
+    2.0 * (e / 2.0).asin() + ROUNDING_SLACK_RAD
+}
+
 /// How far a curve piece of length at most `length` whose ends are `chord` apart can be from
 /// the great-circle arc joining its ends (both ways: every curve point is within this of the
 /// arc, and every arc point within this of the curve).
@@ -320,6 +436,68 @@ mod tests {
             }
             assert!(bound >= brute, "{bound} < {brute}");
             assert!(bound <= brute * 1.001 + 1e-10, "{bound} vs {brute}");
+        }
+    }
+
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// The acceleration bound is above second differences of the curve anywhere in the
+        /// interval, and the chord bound built on it above the distance of curve points from
+        /// the chord; it is not loose by orders of magnitude on smooth curves.
+        #[test]
+        fn acceleration_bound_is_above_second_differences(
+            p in 1usize..=5,
+            n in 6usize..14,
+            scale in 0.0005f64..60.0,
+            wave in 0.0f64..0.6,
+            seed in 0u64..1000,
+            at in 0.0f64..1.0,
+            frac in 0.01f64..1.0,
+        ) {
+            use crate::sphere::{PointSet, SphericalBSpline};
+            use crate::sphere::geometry::arc::distance_to_arc;
+            let rows: Vec<Vec<f64>> = (0..n)
+                .map(|i| {
+                    let jitter = ((i as u64 * 7919 + seed * 104_729) % 1000) as f64 / 1000.0 - 0.5;
+                    ll(scale * i as f64 / n as f64, wave * scale * jitter)
+                })
+                .collect();
+            let m = n - p;
+            let mut k = vec![0.0; p + 1];
+            k.extend((1..m).map(|i| i as f64 / m as f64));
+            k.extend(std::iter::repeat_n(1.0, p + 1));
+            let c = SphericalBSpline::try_new(p, k.clone(), PointSet::try_from_rows(&rows).unwrap()).unwrap();
+            // An interval inside one span.
+            let span = ((at * m as f64) as usize).min(m - 1);
+            let (s0, s1) = (k[p + span], k[p + span + 1]);
+            let w = frac * (s1 - s0);
+            let u = s0 + at.fract() * (s1 - s0 - w);
+            let v = u + w;
+            let a = c.acceleration_bound(u, v);
+            prop_assert!(a > 0.0);
+            if a.is_finite() {
+                let h = 0.01 * w;
+                let ts: Vec<f64> = (0..=200).map(|i| u + h + (w - 2.0 * h) * i as f64 / 200.0).collect();
+                let mut worst: f64 = 0.0;
+                for &t in &ts {
+                    let q = c.evaluate_many(&[t - h, t, t + h]);
+                    let dd: f64 = (0..3).map(|d| (q.get(0)[d] - 2.0 * q.get(1)[d] + q.get(2)[d]) / (h * h)).map(|x| x * x).sum::<f64>().sqrt();
+                    worst = worst.max(dd);
+                }
+                // Rounding in a second difference is about 1e-16 / h^2; truncation is h^2 |C^(4)| / 12.
+                let noise = 1e-15 / (h * h);
+                prop_assert!(worst <= a * 1.01 + noise, "second difference {worst} above the bound {a}");
+                let pts = c.evaluate_many(&[u, v]);
+                let chord = angle_between(pts.get(0), pts.get(1));
+                let dev = acceleration_deviation(a, w, chord);
+                let cs = c.evaluate_many(&ts);
+                for i in 0..ts.len() {
+                    let e = distance_to_arc(cs.get(i), pts.get(0), pts.get(1));
+                    prop_assert!(e <= dev, "{e} > {dev}");
+                }
+            }
         }
     }
 }

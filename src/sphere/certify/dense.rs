@@ -10,7 +10,9 @@
 //! `arc_to_arc_sup` of the chord (or the Lipschitz bound of the distance,
 //! whichever is smaller). Proofs: `docs/certified-distance.md`.
 
-use super::bounds::{arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD};
+use super::bounds::{
+    acceleration_deviation, arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD,
+};
 use crate::sphere::curve::{even_parameters, SphericalCurve};
 use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle_between, Dynamic, PointSet};
@@ -136,8 +138,11 @@ pub fn sample_within_budget(
                     ts[i + 1],
                     &pts[i * dim..(i + 1) * dim],
                     &pts[(i + 1) * dim..(i + 2) * dim],
-                    tol,
-                    cap,
+                    ChordEffort {
+                        tol,
+                        cap,
+                        may_split: !last_round,
+                    },
                 )
             })
             .collect();
@@ -207,23 +212,57 @@ pub fn sample_within_budget(
     }
 }
 
+/// What [`certify_chord`] aims for and may spend.
+#[derive(Clone, Copy)]
+struct ChordEffort {
+    /// The bound wanted (radians).
+    tol: f64,
+    /// Most interior evaluations.
+    cap: usize,
+    /// Whether the caller will halve a chord that fails (not in the last round).
+    may_split: bool,
+}
+
 /// A proven bound of the two-way distance between the curve on `[u, v]` and the chord
 /// `pu`–`pv`, spending at most `cap` interior evaluations; returns (bound, evaluations).
+/// With `may_split`, a sample farther than `tol` from the chord ends the work early (no
+/// bound can then be within `tol`, and the caller halves the chord): the bound returned is
+/// the one proven before the sampling.
 fn certify_chord(
     curve: &dyn SphericalCurve,
     u: f64,
     v: f64,
     pu: &[f64],
     pv: &[f64],
-    tol: f64,
-    cap: usize,
+    effort: ChordEffort,
 ) -> (f64, usize) {
-    let speed = curve.speed_bound(u, v);
-    // Any two points of the sphere are within pi: the bound when the speed bound is not finite.
-    let whole = ellipse_deviation(speed * (v - u), angle_between(pu, pv)).min(std::f64::consts::PI);
+    let ChordEffort {
+        tol,
+        cap,
+        may_split,
+    } = effort;
     if v <= u {
         return (0.0, 0);
     }
+    let chord = angle_between(pu, pv);
+    // Within a knot span the acceleration bound settles most chords at once; the speed bound
+    // (and its sub-intervals) is the fallback across joints and near half turns.
+    let accel = curve.acceleration_bound(u, v);
+    let second = acceleration_deviation(accel, v - u, chord);
+    if second <= tol {
+        return (second, 0);
+    }
+    // With an acceleration bound the sub-intervals below are judged by it; the speed bound
+    // (a call as costly as the acceleration bound) is only needed without one.
+    let speed = if accel.is_finite() {
+        f64::INFINITY
+    } else {
+        curve.speed_bound(u, v)
+    };
+    // Any two points of the sphere are within pi: the bound when the speed bound is not finite.
+    let whole = ellipse_deviation(speed * (v - u), chord)
+        .min(second)
+        .min(std::f64::consts::PI);
     if whole <= tol {
         return (whole, 0);
     }
@@ -246,14 +285,16 @@ fn certify_chord(
             let (pa, pb) = (&pts[a * dim..(a + 1) * dim], &pts[b * dim..(b + 1) * dim]);
             let chord = angle_between(pa, pb);
             let sup = arc_to_arc_sup(pa, pb, &frame);
+            // The acceleration bound over [u, v] holds on every part of it.
+            let bent = acceleration_deviation(accel, ts[b] - ts[a], chord) + sup;
             let bound_with = |speed: f64| {
                 let length = speed * (ts[b] - ts[a]);
                 let lip = 0.5 * (gs[a] + gs[b] + length) + ROUNDING_SLACK_RAD;
-                lip.min(ellipse_deviation(length, chord) + sup)
+                lip.min(ellipse_deviation(length, chord) + sup).min(bent)
             };
             let mut own = parent_speed;
             let mut bd = bound_with(own);
-            if bd > tol {
+            if bd > tol && !accel.is_finite() {
                 own = curve.speed_bound(ts[a], ts[b]).min(parent_speed);
                 bd = bound_with(own);
             }
@@ -281,7 +322,12 @@ fn certify_chord(
             let p = mp.get(k);
             ts.push(mids[k]);
             pts.extend_from_slice(p);
-            gs.push(frame.distance_dyn(p));
+            let g = frame.distance_dyn(p);
+            if may_split && g > tol {
+                // A curve point this far from the chord: the chord fails whatever the bound.
+                return (whole.max(g), evaluations);
+            }
+            gs.push(g);
             let m = ts.len() - 1;
             open.push((a, m, speed));
             open.push((m, b, speed));

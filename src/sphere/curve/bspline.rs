@@ -243,6 +243,9 @@ impl SphericalCurve for SphericalBSpline {
     fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
         SphericalBSpline::speed_bound(self, t0, t1)
     }
+    fn acceleration_bound(&self, t0: f64, t1: f64) -> f64 {
+        SphericalBSpline::acceleration_bound(self, t0, t1)
+    }
     fn breaks(&self) -> Vec<f64> {
         let (a, b) = self.domain();
         let mut out: Vec<f64> = Vec::new();
@@ -307,6 +310,42 @@ impl SphericalBSpline {
             }
         }
         best
+    }
+
+    /// An upper bound of |C''(t)| (ambient, radians per unit of t squared) over `[t0, t1]`
+    /// when the interval lies within one knot span (see
+    /// [`crate::sphere::certify::bounds::triangle_acceleration_bound`]); infinity when it
+    /// crosses a knot, where the curve need not be twice differentiable.
+    pub fn acceleration_bound(&self, t0: f64, t1: f64) -> f64 {
+        let (lo, hi) = self.domain();
+        let (t0, t1) = (t0.clamp(lo, hi), t1.clamp(lo, hi));
+        let (a, b) = (t0.min(t1), t0.max(t1));
+        let p = self.degree;
+        let frame = Frame::new(p, &self.knots, &self.control);
+        let k = frame.span(a);
+        let u = &self.knots;
+        if b > u[k + 1] {
+            return f64::INFINITY;
+        }
+        let dim = self.dim();
+        let ctrl = &self.control.as_flat()[(k - p) * dim..(k + 1) * dim];
+        let mut scratch = Vec::with_capacity((p + 1) * dim);
+        crate::sphere::certify::bounds::triangle_acceleration_bound(
+            dim,
+            ctrl,
+            |r, j| {
+                let i = k - p + j;
+                let den = u[i + p - r + 1] - u[i];
+                let inv = if den > 0.0 { 1.0 / den } else { 0.0 };
+                crate::sphere::certify::bounds::NodeAlpha {
+                    at_start: (a - u[i]) * inv,
+                    at_end: (b - u[i]) * inv,
+                    slope: inv,
+                }
+            },
+            b - a,
+            &mut scratch,
+        )
     }
 }
 

@@ -27,6 +27,14 @@ pub trait SphericalCurve: Send + Sync {
     /// (callers subdivide). Certified distances and dense sampling rest on it.
     fn speed_bound(&self, t0: f64, t1: f64) -> f64;
 
+    /// An upper bound of the ambient acceleration |C''(t)| over `[t0, t1]`, proven like
+    /// [`speed_bound`](Self::speed_bound); infinity (the default) when none is known, e.g.
+    /// across a joint where the curve is not twice differentiable. Dense sampling certifies a
+    /// chord by it in one step where the speed bound needs many sub-intervals.
+    fn acceleration_bound(&self, _t0: f64, _t1: f64) -> f64 {
+        f64::INFINITY
+    }
+
     /// Parameters strictly inside the domain where the curve may fail to be smooth (distinct
     /// interior knots, segment joints), ascending. Speed bounds are tightest between them.
     fn breaks(&self) -> Vec<f64>;
@@ -103,6 +111,12 @@ impl SphericalCurve for AnyCurve {
         match self {
             AnyCurve::BSpline(s) => SphericalCurve::speed_bound(s, t0, t1),
             AnyCurve::Beta(s) => s.speed_bound(t0, t1),
+        }
+    }
+    fn acceleration_bound(&self, t0: f64, t1: f64) -> f64 {
+        match self {
+            AnyCurve::BSpline(s) => SphericalCurve::acceleration_bound(s, t0, t1),
+            AnyCurve::Beta(s) => SphericalCurve::acceleration_bound(s, t0, t1),
         }
     }
     fn breaks(&self) -> Vec<f64> {

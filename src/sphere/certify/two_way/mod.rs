@@ -35,7 +35,9 @@
 //! Cost: about (curve length / D) · log(D / precision) curve evaluations, in parallel over the
 //! polyline's segments; for a polyline curve, a few arc-to-arc bounds per segment.
 
-use super::bounds::{arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD};
+use super::bounds::{
+    acceleration_deviation, arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD,
+};
 use crate::sphere::curve::SphericalCurve;
 use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle_between, dot, Dynamic, PointSet};
@@ -447,14 +449,27 @@ fn piece_bound(curve: &dyn SphericalCurve, inp: PieceInput<'_>) -> Piece {
         for &(iu, iv) in &open {
             let (tu, tv) = (s.ts[iu], s.ts[iv]);
             let (pu, pv) = (s.point(iu), s.point(iv));
-            let speed = curve.speed_bound(tu, tv);
-            let length = speed * (tv - tu);
             let chord = angle_between(pu, pv);
-            let lip = 0.5 * (s.fs[iu] + s.fs[iv] + length) + ROUNDING_SLACK_RAD;
-            let bound = if lip <= level {
-                lip
+            // Within a knot span the acceleration bound is second order in the width and
+            // settles most intervals; the speed bound is the fallback across knots.
+            let accel = curve.acceleration_bound(tu, tv);
+            let bent = if accel.is_finite() {
+                acceleration_deviation(accel, tv - tu, chord) + arc_to_arc_sup(pu, pv, &frame)
             } else {
-                lip.min(ellipse_deviation(length, chord) + arc_to_arc_sup(pu, pv, &frame))
+                f64::INFINITY
+            };
+            let bound = if bent <= level {
+                bent
+            } else {
+                let speed = curve.speed_bound(tu, tv);
+                let length = speed * (tv - tu);
+                let lip = 0.5 * (s.fs[iu] + s.fs[iv] + length) + ROUNDING_SLACK_RAD;
+                if lip <= level {
+                    lip
+                } else {
+                    lip.min(ellipse_deviation(length, chord) + arc_to_arc_sup(pu, pv, &frame))
+                        .min(bent)
+                }
             };
             let bound = bound.min(PI);
             let narrow = tv - tu <= MIN_RELATIVE_WIDTH * tu.abs().max(tv.abs()).max(1.0)
