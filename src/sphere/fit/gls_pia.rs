@@ -483,6 +483,27 @@ pub fn gls_pia_iteration(
     pass.errors.metrics()
 }
 
+/// [`gls_pia_iteration`] on a subset of the data that holds every point whose curve point
+/// depends on a control point `moving(i)` says may move; the other control points stay put
+/// (their data are only partly in the subset). Returns the subset's error sums before the move.
+pub(crate) fn gls_pia_iteration_local(
+    spline: &mut SphericalBSpline,
+    points: &PointSet,
+    params: &[f64],
+    step: StepRule,
+    moving: impl Fn(usize) -> bool,
+) -> super::metrics::ErrorSums {
+    let global_mu = global_step(step, spline, params);
+    let mut pass = run_pass(spline, points, params, PassMode::Accumulate);
+    for (i, w) in pass.weights.iter_mut().enumerate() {
+        if !moving(i) {
+            *w = 0.0;
+        }
+    }
+    apply_moves(spline, &pass.moves, &pass.weights, global_mu);
+    pass.errors
+}
+
 /// `P_i ← (P_i + μ_i M_i) / |P_i + μ_i M_i|` with `M_i = Σ_j D_i(t_j) δ_j` and `μ_i = 1 / Σ_j
 /// D_i(t_j)` (Deng–Lin) unless a global μ is given.
 fn apply_moves(
