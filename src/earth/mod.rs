@@ -85,8 +85,8 @@ pub use features::{
 };
 pub use job::{
     check_degree, check_fit_options, check_target_max_error_rad, check_tolerance, into_job,
-    parse_json_number, InterpolateSettings, Job, Limits, Operation, OperationKind, OutputFormat,
-    OutputOptions, ParameterizationOption, ParseError, RawOptions, TimeOptions, Topology,
+    parse_json_number, InterpolateSettings, Job, Limits, Operation, OperationKind, OptionType,
+    OutputFormat, OutputOptions, ParameterizationOption, ParseError, RawOptions, TimeOptions, Topology,
     DEFAULT_PRECISION, MAX_PRECISION,
 };
 pub use json_out::JsonOut;

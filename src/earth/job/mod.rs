@@ -24,7 +24,7 @@ use checks::{check_count, invalid_option};
 pub use checks::{check_degree, check_fit_options, check_target_max_error_rad, check_tolerance};
 pub use into_job::into_job;
 pub use raw::{
-    parse_json_number, OperationKind, OutputFormat, ParameterizationOption, ParseError, RawOptions,
+    parse_json_number, OperationKind, OptionType, OutputFormat, ParameterizationOption, ParseError, RawOptions,
     Topology,
 };
 
