@@ -370,9 +370,7 @@ impl RawOptions {
             "parameter_correction" | "drop_small_rings" => OptionType::Boolean,
             "time_property" | "at" => OptionType::Text,
             "knots" => OptionType::OneOf(&["adaptive", "geodesic", "euclidean", "uniform"]),
-            "parameterization" => {
-                OptionType::OneOf(&["chord", "centripetal", "uniform", "time"])
-            }
+            "parameterization" => OptionType::OneOf(&["chord", "centripetal", "uniform", "time"]),
             "solver" => OptionType::OneOf(&["gls-pia-accelerated", "gls-pia", "gauss-newton"]),
             "topology" => OptionType::OneOf(&["per-feature", "shared"]),
             "format" => OptionType::OneOf(&["geojson", "topojson"]),

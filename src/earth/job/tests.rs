@@ -323,7 +323,10 @@ fn option_types_describe_what_set_reads() {
                     .unwrap_or_else(|e| panic!("{name}={v}: {e}"));
             }
             if t != OptionType::Text {
-                assert!(RawOptions::default().set(name, bad).is_err(), "{name}={bad}");
+                assert!(
+                    RawOptions::default().set(name, bad).is_err(),
+                    "{name}={bad}"
+                );
             }
         }
     }

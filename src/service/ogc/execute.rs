@@ -74,8 +74,7 @@ fn option_text(name: &str, t: OptionType, v: &Value) -> Result<String, ApiError>
             OptionType::Text => "a string".to_string(),
             OptionType::OneOf(names) => format!("one of the strings {}", names.join(", ")),
         };
-        invalid(at, format!("input {name} is {v}, not {expected}"))
-            .param(name.to_string())
+        invalid(at, format!("input {name} is {v}, not {expected}")).param(name.to_string())
     })
 }
 
@@ -94,13 +93,23 @@ pub(crate) fn read_execution(
 ) -> Result<Execution, ApiError> {
     let mut request = match parse_json(bytes)? {
         Value::Object(o) => o,
-        _ => return Err(invalid("", "the body must be an execute request: {\"inputs\": {\"data\": …}}")),
+        _ => {
+            return Err(invalid(
+                "",
+                "the body must be an execute request: {\"inputs\": {\"data\": …}}",
+            ))
+        }
     };
     for key in request.keys() {
-        if !matches!(key.as_str(), "inputs" | "outputs" | "response" | "subscriber") {
+        if !matches!(
+            key.as_str(),
+            "inputs" | "outputs" | "response" | "subscriber"
+        ) {
             return Err(invalid(
                 format!("/{key}"),
-                format!("unknown member {key:?}: an execute request has inputs, outputs and response"),
+                format!(
+                    "unknown member {key:?}: an execute request has inputs, outputs and response"
+                ),
             ));
         }
     }
@@ -112,12 +121,20 @@ pub(crate) fn read_execution(
     };
     let mut inputs = match request.remove("inputs") {
         Some(Value::Object(o)) => o,
-        _ => return Err(invalid("/inputs", "inputs must be an object holding data and the options")),
+        _ => {
+            return Err(invalid(
+                "/inputs",
+                "inputs must be an object holding data and the options",
+            ))
+        }
     };
     let kind = endpoint.kind();
-    let data = inputs
-        .remove("data")
-        .ok_or_else(|| invalid("/inputs/data", "the input data (a GeoJSON object, or {\"href\": …} to a job's result) is missing"))?;
+    let data = inputs.remove("data").ok_or_else(|| {
+        invalid(
+            "/inputs/data",
+            "the input data (a GeoJSON object, or {\"href\": …} to a job's result) is missing",
+        )
+    })?;
     let mut raw = RawOptions::default();
     for (name, value) in &inputs {
         if !kind.option_names().contains(&name.as_str()) {
@@ -163,14 +180,19 @@ fn resolve_data(
     base: &str,
 ) -> Result<Value, ApiError> {
     let Value::Object(mut o) = data else {
-        return Err(invalid("/inputs/data", "data must be a GeoJSON object or {\"href\": …}"));
+        return Err(invalid(
+            "/inputs/data",
+            "data must be a GeoJSON object or {\"href\": …}",
+        ));
     };
     if !o.contains_key("type") {
         if let Some(v) = o.remove("value") {
             return Ok(v);
         }
         if let Some(href) = o.get("href") {
-            let href = href.as_str().ok_or_else(|| invalid("/inputs/data/href", "href must be a string"))?;
+            let href = href
+                .as_str()
+                .ok_or_else(|| invalid("/inputs/data/href", "href must be a string"))?;
             return read_reference(href, config, store, base);
         }
     }
@@ -187,7 +209,10 @@ fn read_reference(
     store: &JobStore,
     base: &str,
 ) -> Result<Value, ApiError> {
-    let path = if let Some(rest) = href.strip_prefix("http://").or_else(|| href.strip_prefix("https://")) {
+    let path = if let Some(rest) = href
+        .strip_prefix("http://")
+        .or_else(|| href.strip_prefix("https://"))
+    {
         let (authority, path) = rest.split_at(rest.find('/').unwrap_or(rest.len()));
         let own = base.trim_start_matches("http://");
         if !authority.eq_ignore_ascii_case(own) {
@@ -203,11 +228,19 @@ fn read_reference(
         .strip_prefix("/jobs/")
         .and_then(|p| p.strip_suffix("/results"))
         .filter(|id| is_job_id(id))
-        .ok_or_else(|| bad_reference(format!("{href:?} is not a job result here: give …/jobs/{{jobId}}/results")))?;
-    let record = store
-        .get(id)
-        .ok_or_else(|| bad_reference(format!("there is no job {id} (it may have expired or been dismissed)")))?;
-    if record.status != Status::Successful || record.media_type.as_deref() != Some(super::super::handlers::GEO_JSON) {
+        .ok_or_else(|| {
+            bad_reference(format!(
+                "{href:?} is not a job result here: give …/jobs/{{jobId}}/results"
+            ))
+        })?;
+    let record = store.get(id).ok_or_else(|| {
+        bad_reference(format!(
+            "there is no job {id} (it may have expired or been dismissed)"
+        ))
+    })?;
+    if record.status != Status::Successful
+        || record.media_type.as_deref() != Some(super::super::handlers::GEO_JSON)
+    {
         return Err(bad_reference(format!(
             "job {id} is {:?}, not a successful job with a GeoJSON result",
             record.status
@@ -286,13 +319,22 @@ pub(super) async fn execute(
             .run(ROUTE, move |bytes, cancel| {
                 let x = read_execution(bytes, endpoint, &config, &store, &base)?;
                 let media_type = output_media_type(x.job.format);
-                let (out, points, curves) =
-                    geo_run(x.data, endpoint, x.job, &config, cancel, &Progress::default())?;
+                let (out, points, curves) = geo_run(
+                    x.data,
+                    endpoint,
+                    x.job,
+                    &config,
+                    cancel,
+                    &Progress::default(),
+                )?;
                 if x.document {
                     let v: Box<serde_json::value::RawValue> =
-                        serde_json::value::RawValue::from_string(String::from_utf8(out).map_err(|_| ApiError::internal())?)
-                            .map_err(|_| ApiError::internal())?;
-                    let wrapped = serde_json::to_vec(&json!({ "result": v })).map_err(|_| ApiError::internal())?;
+                        serde_json::value::RawValue::from_string(
+                            String::from_utf8(out).map_err(|_| ApiError::internal())?,
+                        )
+                        .map_err(|_| ApiError::internal())?;
+                    let wrapped = serde_json::to_vec(&json!({ "result": v }))
+                        .map_err(|_| ApiError::internal())?;
                     return Ok(((wrapped, JSON), points, curves));
                 }
                 Ok(((out, media_type), points, curves))
@@ -319,7 +361,15 @@ pub(super) async fn execute(
         .create(endpoint.kind().name(), cancel.clone(), progress.clone())
         .map_err(refusal)?;
     let job_id = record.id.clone();
-    tokio::spawn(run_job(state.clone(), job_id.clone(), endpoint, checked, cancel, progress, deadline));
+    tokio::spawn(run_job(
+        state.clone(),
+        job_id.clone(),
+        endpoint,
+        checked,
+        cancel,
+        progress,
+        deadline,
+    ));
     let mut res = json_response(StatusCode::CREATED, &status_info(&base, &record), JSON);
     let location = format!("{base}/jobs/{job_id}");
     if let Ok(v) = HeaderValue::from_str(&location) {
@@ -393,7 +443,10 @@ async fn run_job(
     });
     if let Err(e) = work.await {
         tracing::error!(job = %id, error = %e, "job work failed");
-        store.fail(&id, "internal: an unexpected error occurred; it has been logged".into());
+        store.fail(
+            &id,
+            "internal: an unexpected error occurred; it has been logged".into(),
+        );
     }
 }
 
@@ -423,10 +476,20 @@ mod tests {
         assert!(!x.document);
         // Wrong type: 400 at the input.
         let e = read(json!({"inputs": {"data": data, "degree": "3"}})).unwrap_err();
-        assert_eq!((e.status.as_u16(), e.pointer.as_deref()), (400, Some("/inputs/degree")));
+        assert_eq!(
+            (e.status.as_u16(), e.pointer.as_deref()),
+            (400, Some("/inputs/degree"))
+        );
         // Out of range: into_job's 422, naming and pointing at the input.
         let e = read(json!({"inputs": {"data": data, "degree": 9}})).unwrap_err();
-        assert_eq!((e.status.as_u16(), e.parameter.as_deref(), e.pointer.as_deref()), (422, Some("degree"), Some("/inputs/degree")));
+        assert_eq!(
+            (
+                e.status.as_u16(),
+                e.parameter.as_deref(),
+                e.pointer.as_deref()
+            ),
+            (422, Some("degree"), Some("/inputs/degree"))
+        );
         let e = read(json!({"inputs": {"data": data, "beta1": 1}})).unwrap_err();
         assert_eq!(e.status.as_u16(), 400, "not an input of fit");
         let e = read(json!({"inputs": {}})).unwrap_err();
@@ -444,7 +507,11 @@ mod tests {
             "/jobs/0123456789abcdef0123456789abcdef/results",
         ] {
             let e = read(json!({"inputs": {"data": {"href": href}}})).unwrap_err();
-            assert_eq!((e.status.as_u16(), e.slug), (422, "invalid-reference"), "{href}");
+            assert_eq!(
+                (e.status.as_u16(), e.slug),
+                (422, "invalid-reference"),
+                "{href}"
+            );
         }
     }
 
@@ -452,7 +519,10 @@ mod tests {
     fn prefer_is_read_as_rfc_7240_says() {
         let mut h = HeaderMap::new();
         assert!(!prefers_async(&h));
-        h.insert("prefer", HeaderValue::from_static("return=minimal, respond-async"));
+        h.insert(
+            "prefer",
+            HeaderValue::from_static("return=minimal, respond-async"),
+        );
         assert!(prefers_async(&h));
         h.insert("prefer", HeaderValue::from_static("respond-async; wait=10"));
         assert!(prefers_async(&h));

@@ -175,7 +175,12 @@ fn geometry_box(g: &Value, b: &mut [f64; 4]) {
 
 /// Whether feature `f` meets the query box `q` (module docs).
 fn meets(f: &Value, q: &[f64; 4]) -> bool {
-    let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
     if let Some(g) = f.get("geometry") {
         geometry_box(g, &mut b);
     }
@@ -193,7 +198,12 @@ fn meets(f: &Value, q: &[f64; 4]) -> bool {
 
 /// `bbox`: four numbers, or six (heights ignored).
 fn parse_bbox(s: &str) -> Result<[f64; 4], ApiError> {
-    let bad = |why: &str| ApiError::invalid_query("bbox", format!("bbox={s:?} {why}: give minLon,minLat,maxLon,maxLat in degrees"));
+    let bad = |why: &str| {
+        ApiError::invalid_query(
+            "bbox",
+            format!("bbox={s:?} {why}: give minLon,minLat,maxLon,maxLat in degrees"),
+        )
+    };
     let n: Vec<f64> = s
         .split(',')
         .map(|x| crate::earth::parse_json_number(x.trim()).filter(|v| v.is_finite()))
@@ -219,7 +229,10 @@ pub(super) async fn items(
     let p = Params::new(pairs, &["limit", "offset", "bbox", "f"])?;
     if let Some(f) = p.get::<String>("f", "a format")? {
         if f != "json" && f != "geojson" {
-            return Err(ApiError::invalid_query("f", format!("f={f:?}: only json is served")));
+            return Err(ApiError::invalid_query(
+                "f",
+                format!("f={f:?}: only json is served"),
+            ));
         }
     }
     let limit = p.int("limit")?.unwrap_or(DEFAULT_LIMIT);
@@ -255,13 +268,28 @@ pub(super) async fn items(
     };
     let mut links = vec![
         link(url(offset), "self", GEO_JSON, "this page"),
-        link(format!("{b}/collections/{id}"), "collection", JSON, "the collection"),
+        link(
+            format!("{b}/collections/{id}"),
+            "collection",
+            JSON,
+            "the collection",
+        ),
     ];
     if offset.saturating_add(page.len()) < matched.len() {
-        links.push(link(url(offset + page.len()), "next", GEO_JSON, "next page"));
+        links.push(link(
+            url(offset + page.len()),
+            "next",
+            GEO_JSON,
+            "next page",
+        ));
     }
     if offset > 0 {
-        links.push(link(url(offset.saturating_sub(limit)), "prev", GEO_JSON, "previous page"));
+        links.push(link(
+            url(offset.saturating_sub(limit)),
+            "prev",
+            GEO_JSON,
+            "previous page",
+        ));
     }
     let body = json!({
         "type": "FeatureCollection",
@@ -270,7 +298,10 @@ pub(super) async fn items(
         "features": page,
         "links": links,
     });
-    Ok(respond(GEO_JSON, serde_json::to_vec(&body).map_err(|_| ApiError::internal())?))
+    Ok(respond(
+        GEO_JSON,
+        serde_json::to_vec(&body).map_err(|_| ApiError::internal())?,
+    ))
 }
 
 pub(super) async fn item(
@@ -291,10 +322,23 @@ pub(super) async fn item(
     let b = base_url(&headers);
     let mut f = with_id(f, i);
     f["links"] = json!([
-        link(format!("{b}/collections/{id}/items/{feature}"), "self", GEO_JSON, "this feature"),
-        link(format!("{b}/collections/{id}"), "collection", JSON, "the collection"),
+        link(
+            format!("{b}/collections/{id}/items/{feature}"),
+            "self",
+            GEO_JSON,
+            "this feature"
+        ),
+        link(
+            format!("{b}/collections/{id}"),
+            "collection",
+            JSON,
+            "the collection"
+        ),
     ]);
-    Ok(respond(GEO_JSON, serde_json::to_vec(&f).map_err(|_| ApiError::internal())?))
+    Ok(respond(
+        GEO_JSON,
+        serde_json::to_vec(&f).map_err(|_| ApiError::internal())?,
+    ))
 }
 
 #[cfg(test)]
@@ -311,10 +355,19 @@ mod tests {
         assert!(meets(&f, &parse_bbox("160,0,175,20").unwrap()));
         assert!(!meets(&f, &parse_bbox("0,0,10,20").unwrap()));
         assert!(!meets(&f, &parse_bbox("160,30,175,40").unwrap()));
-        assert!(meets(&f, &parse_bbox("175,0,-170,20").unwrap()), "across 180");
+        assert!(
+            meets(&f, &parse_bbox("175,0,-170,20").unwrap()),
+            "across 180"
+        );
         assert!(!meets(&f, &parse_bbox("179.5,0,-170,20").unwrap()));
-        assert!(meets(&f, &parse_bbox("160,0,0,175,20,100").unwrap()), "6 numbers");
-        assert!(!meets(&json!({"type": "Feature", "geometry": null}), &parse_bbox("-180,-90,180,90").unwrap()));
+        assert!(
+            meets(&f, &parse_bbox("160,0,0,175,20,100").unwrap()),
+            "6 numbers"
+        );
+        assert!(!meets(
+            &json!({"type": "Feature", "geometry": null}),
+            &parse_bbox("-180,-90,180,90").unwrap()
+        ));
         for bad in ["1,2,3", "a,b,c,d", "0,10,1,5", "NaN,0,1,1"] {
             assert_eq!(parse_bbox(bad).unwrap_err().status.as_u16(), 400, "{bad}");
         }

@@ -85,7 +85,12 @@ pub(crate) fn find(state: &AppState, id: &str) -> Result<JobRecord, ApiError> {
 
 pub(super) async fn list(State(state): State<AppState>, headers: HeaderMap) -> Response {
     let b = base_url(&headers);
-    let jobs: Vec<Value> = state.jobs.list().iter().map(|r| status_info(&b, r)).collect();
+    let jobs: Vec<Value> = state
+        .jobs
+        .list()
+        .iter()
+        .map(|r| status_info(&b, r))
+        .collect();
     let body = json!({
         "jobs": jobs,
         "links": [link(format!("{b}/jobs"), "self", JSON, "jobs")],

@@ -65,8 +65,10 @@ pub(super) fn routes() -> Router<AppState> {
 }
 
 /// Whether a `GET /` wants the OGC landing page (JSON) rather than the map page: `?f=json`, or
-/// an `Accept` that names JSON and not HTML (browsers always name `text/html`; GDAL and OWSLib
-/// ask for `application/json`). Anything else keeps getting the page.
+/// an `Accept` that does not name `text/html`. Browsers always name `text/html` and keep
+/// getting the page; GDAL asks for `application/json`, and OWSLib (Python `requests`) sends
+/// `Accept: */*` and cannot add a query to its first request, so `*/*` gets JSON. A request
+/// with no `Accept` at all gets the page, as before this API existed.
 pub(super) fn wants_json(headers: &HeaderMap, query: Option<&str>) -> bool {
     let f = query.and_then(|q| {
         q.split('&')
@@ -78,12 +80,13 @@ pub(super) fn wants_json(headers: &HeaderMap, query: Option<&str>) -> bool {
         Some(_) => return false,
         None => {}
     }
-    let accept = headers
+    match headers
         .get(header::ACCEPT)
-        .and_then(|v| v.to_str().ok())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    accept.contains("json") && !accept.contains("text/html")
+        .map(|v| v.to_str().unwrap_or(""))
+    {
+        None => false,
+        Some(accept) => !accept.to_ascii_lowercase().contains("text/html"),
+    }
 }
 
 /// `http://host` of the request (links are absolute; see the module docs).
@@ -101,7 +104,11 @@ pub(crate) fn base_url(headers: &HeaderMap) -> String {
 }
 
 /// A JSON response with `status`.
-pub(crate) fn json_response(status: StatusCode, value: &Value, media_type: &'static str) -> Response {
+pub(crate) fn json_response(
+    status: StatusCode,
+    value: &Value,
+    media_type: &'static str,
+) -> Response {
     let body = serde_json::to_vec(value).expect("a JSON value serialises");
     let mut res = (status, body).into_response();
     res.headers_mut()
@@ -152,7 +159,7 @@ mod tests {
     fn browsers_get_the_page_and_json_clients_the_landing_page() {
         let chrome = "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8";
         assert!(!wants_json(&accept(chrome), None));
-        assert!(!wants_json(&accept("*/*"), None), "curl keeps the page");
+        assert!(wants_json(&accept("*/*"), None), "OWSLib");
         assert!(!wants_json(&HeaderMap::new(), None));
         assert!(wants_json(&accept("application/json"), None));
         assert!(wants_json(&accept("application/json, */*"), None));

@@ -32,7 +32,8 @@ pub(crate) fn process(id: &str) -> Result<GeoEndpoint, ApiError> {
         .map(|(_, e)| *e)
         .ok_or_else(|| {
             let mut e = ApiError::not_found(&format!("/processes/{id}"));
-            e.detail = format!("no process {id:?}: the processes are fit, interpolate and evaluate");
+            e.detail =
+                format!("no process {id:?}: the processes are fit, interpolate and evaluate");
             e
         })
 }

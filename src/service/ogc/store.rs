@@ -144,7 +144,10 @@ fn new_id() -> String {
 
 /// Whether `id` has the shape of a job id (so that it can name a directory safely).
 pub(crate) fn is_job_id(id: &str) -> bool {
-    id.len() == 32 && id.bytes().all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase())
+    id.len() == 32
+        && id
+            .bytes()
+            .all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase())
 }
 
 fn cut(mut s: String) -> String {
@@ -588,7 +591,10 @@ mod tests {
         job(&store).unwrap();
         assert_eq!(job(&store), Err(Refusal::TooManyJobs(2)));
         store.fail(&a.id, "x".repeat(10_000));
-        assert_eq!(store.get(&a.id).unwrap().message.unwrap().len(), MAX_MESSAGE);
+        assert_eq!(
+            store.get(&a.id).unwrap().message.unwrap().len(),
+            MAX_MESSAGE
+        );
         assert!(job(&store).is_ok());
         let _ = std::fs::remove_dir_all(&dir);
     }
