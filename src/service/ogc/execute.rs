@@ -31,6 +31,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// A checked execute request.
+#[derive(Debug)]
 pub(crate) struct Execution {
     pub job: Job,
     pub data: Value,
