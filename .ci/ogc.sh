@@ -59,12 +59,14 @@ want=$(python3 -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["feat
 check_ogrinfo() {
   echo "== ogrinfo OAPIF:$URL/ $JOB ($1)"
   timeout 60 ogrinfo -ro -al -q "OAPIF:$URL/" "$JOB" >"$WORK/ogrinfo.txt"
-  local n props
+  local n props names
   n=$(grep -c '^OGRFeature(' "$WORK/ogrinfo.txt" || true)
+  # The input's own property (each state's name) comes through too.
+  names=$(grep -c '^  name (String) = ' "$WORK/ogrinfo.txt" || true)
   # Every feature with its properties: the fit report of each (GDAL lists it as a JSON field).
-  props=$(grep -c '^  fit (String) = {' "$WORK/ogrinfo.txt" || true)
-  echo "ogrinfo: $n features, $props with properties.fit (want $want)"
-  [ "$n" = "$want" ] && [ "$props" = "$want" ]
+  props=$(grep -cF '  fit (String(JSON)) = {' "$WORK/ogrinfo.txt" || true)
+  echo "ogrinfo: $n features, $props with properties.fit, $names with properties.name (want $want)"
+  [ "$n" = "$want" ] && [ "$props" = "$want" ] && [ "$names" = "$want" ]
 }
 check_ogrinfo "before a restart"
 timeout 60 ogrinfo -ro -so "OAPIF:$URL/" | grep -q "$JOB"
