@@ -26,7 +26,7 @@
 //! a canned 503 and close), a header read timeout that also closes idle keep-alive connections,
 //! and a bounded graceful shutdown. Bodies are read within `body_timeout` (408 past it, 400 for a
 //! body cut short) and count against a global byte budget for bodies in flight
-//! (`max_body_bytes_in_flight`); a body over the limit is read and discarded up to a bound before
+//! (`max_body_bytes_in_flight`); a body over the limit is read and discarded for a bounded time before
 //! the 413 is sent, so that clients that write the whole body before reading see it.
 
 mod body;

@@ -89,6 +89,21 @@ pub(super) fn wants_json(headers: &HeaderMap, query: Option<&str>) -> bool {
     }
 }
 
+/// Checks `f` of a `GET /`: `json` or `html` when given.
+///
+/// # Errors
+/// 400 `invalid-query` for another value.
+pub(super) fn check_format(query: Option<&str>) -> Result<(), super::ApiError> {
+    let f = query.and_then(|q| q.split('&').find_map(|kv| kv.strip_prefix("f=")));
+    match f {
+        None | Some("json" | "html") => Ok(()),
+        Some(other) => Err(super::ApiError::invalid_query(
+            "f",
+            format!("f={other:?}: use json (the OGC API landing page) or html (the map page)"),
+        )),
+    }
+}
+
 /// `http://host` of the request (links are absolute; see the module docs).
 pub(crate) fn base_url(headers: &HeaderMap) -> String {
     let host = headers
@@ -165,6 +180,8 @@ mod tests {
         assert!(wants_json(&accept("application/json, */*"), None));
         assert!(wants_json(&accept(chrome), Some("f=json")));
         assert!(!wants_json(&accept("application/json"), Some("f=html")));
+        assert!(check_format(Some("f=json")).is_ok() && check_format(None).is_ok());
+        assert_eq!(check_format(Some("f=AAA")).unwrap_err().status, 400);
     }
 
     #[test]
