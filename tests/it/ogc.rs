@@ -564,6 +564,16 @@ async fn job_results_are_feature_collections() {
     .json();
     assert_eq!(b["numberMatched"], 1);
     assert_eq!(b["features"][0]["properties"]["name"], "line 1");
+    let d = get(
+        &app,
+        &format!("/collections/{id}/items?datetime=2026-01-01T00:00:00Z"),
+    )
+    .await;
+    assert_eq!(
+        d.json()["numberMatched"],
+        3,
+        "datetime matches every feature"
+    );
     let f = get(&app, &format!("/collections/{id}/items/2")).await;
     assert_eq!(f.status, 200);
     assert_eq!(f.json()["properties"]["name"], "line 2");

@@ -227,7 +227,9 @@ pub(super) async fn items(
     Query(pairs): Query<Vec<(String, String)>>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let p = Params::new(pairs, &["limit", "offset", "bbox", "f"])?;
+    // `datetime` (Features core) is accepted and matches every feature: results carry no times
+    // of their own that the collection describes.
+    let p = Params::new(pairs, &["limit", "offset", "bbox", "datetime", "f"])?;
     if let Some(f) = p.get::<String>("f", "a format")? {
         if f != "json" && f != "geojson" {
             return Err(ApiError::invalid_query(
