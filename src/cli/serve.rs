@@ -57,6 +57,22 @@ pub(crate) struct ServeArgs {
     /// Open connections at once; past that, new connections get 503 and are closed
     #[arg(long, env = "SPHEREFIT_MAX_CONNECTIONS", default_value_t = ServiceConfig::default().max_connections)]
     max_connections: usize,
+    /// Directory of the OGC API – Processes job store (job status and results; kept across
+    /// restarts) [default: spherefit-data under the system's temporary directory]
+    #[arg(long, env = "SPHEREFIT_DATA_DIR")]
+    data_dir: Option<std::path::PathBuf>,
+    /// Time budget of one asynchronous job, in seconds; past it the job ends failed
+    #[arg(long, env = "SPHEREFIT_JOB_TIMEOUT_S", default_value_t = ServiceConfig::default().job_timeout.as_secs_f64())]
+    job_timeout_s: f64,
+    /// Jobs waiting or running at once; past that, 429 with Retry-After
+    #[arg(long, env = "SPHEREFIT_MAX_JOBS", default_value_t = ServiceConfig::default().max_jobs)]
+    max_jobs: usize,
+    /// Bytes the job store may hold on disk; past that, jobs fail or are refused (503)
+    #[arg(long, env = "SPHEREFIT_STORE_BYTES", default_value_t = ServiceConfig::default().store_bytes)]
+    store_bytes: u64,
+    /// How long a finished job and its result are kept, in seconds
+    #[arg(long, env = "SPHEREFIT_JOB_EXPIRY_S", default_value_t = ServiceConfig::default().job_expiry.as_secs_f64())]
+    job_expiry_s: f64,
     /// Log format on stderr: auto (text on a terminal, JSON otherwise), text or json.
     /// The level comes from RUST_LOG (default info)
     #[arg(long, env = "SPHEREFIT_LOG_FORMAT", value_enum, default_value_t = LogFormat::Auto)]
@@ -100,8 +116,19 @@ impl ServeArgs {
             max_body_bytes_in_flight: self.max_body_bytes_in_flight,
             header_timeout,
             max_connections: self.max_connections.max(1),
+            data_dir: Some(self.data_dir.clone().unwrap_or_else(default_data_dir)),
+            job_timeout: seconds("--job-timeout-s", self.job_timeout_s)?,
+            max_jobs: self.max_jobs.max(1),
+            store_bytes: self.store_bytes,
+            job_expiry: seconds("--job-expiry-s", self.job_expiry_s)?,
         })
     }
+}
+
+/// The job store of `spherefit serve` without `--data-dir`: one place per machine, so that
+/// finished jobs survive a restart.
+fn default_data_dir() -> std::path::PathBuf {
+    std::env::temp_dir().join("spherefit-data")
 }
 
 /// Longest duration a flag takes: a year (longer is surely a typo, and would overflow timers).
@@ -202,6 +229,10 @@ mod tests {
         // The flags' defaults are read from `ServiceConfig::default()`; the durations go
         // through seconds as f64 and must come back unchanged.
         let args = Serve::try_parse_from(["serve"]).unwrap().args;
-        assert_eq!(args.config().unwrap(), ServiceConfig::default());
+        let expected = ServiceConfig {
+            data_dir: Some(default_data_dir()),
+            ..ServiceConfig::default()
+        };
+        assert_eq!(args.config().unwrap(), expected);
     }
 }

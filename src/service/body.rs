@@ -11,8 +11,16 @@ use http_body_util::BodyExt;
 use std::time::{Duration, Instant};
 use tokio::sync::OwnedSemaphorePermit;
 
-/// Longest a rejected request's remaining body is read and discarded before the answer.
-pub(crate) const DRAIN_TIMEOUT: Duration = Duration::from_secs(2);
+/// Longest a rejected request's remaining body is read and discarded before the answer: as
+/// nginx's `lingering_time`, a bound in time, not in bytes, so that a client that writes a body
+/// of any size before reading (Python's urllib) gets the answer instead of a reset connection.
+/// Reading costs no memory (nothing is kept) and little CPU; the connection is held at most
+/// this long, within `max_connections`.
+pub(crate) const DRAIN_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// A rejected body that sends nothing for this long is given up on (nginx's
+/// `lingering_timeout`): a client that stopped sending is waiting for the answer.
+pub(crate) const DRAIN_IDLE: Duration = Duration::from_secs(1);
 
 /// A request body and its share of the global byte budget (returned when this is dropped).
 pub(crate) struct HeldBody {
@@ -28,32 +36,23 @@ fn declared_length(headers: &HeaderMap) -> Option<u64> {
         .and_then(|s| s.trim().parse().ok())
 }
 
-/// Reads and discards the rest of `body`, at most `max_bytes` and until `DRAIN_TIMEOUT`.
-pub(crate) async fn drain(body: Body, max_bytes: usize) {
+/// Reads and discards the rest of `body` until it ends, for at most [`DRAIN_TIMEOUT`], and
+/// until nothing arrives for [`DRAIN_IDLE`].
+pub(crate) async fn drain(body: Body) {
     let mut body = body;
     let until = tokio::time::Instant::now() + DRAIN_TIMEOUT;
-    let mut seen = 0usize;
-    while seen <= max_bytes {
-        match tokio::time::timeout_at(until, body.frame()).await {
-            Ok(Some(Ok(frame))) => {
-                if let Some(d) = frame.data_ref() {
-                    seen += d.len();
-                }
-            }
+    loop {
+        let idle = (tokio::time::Instant::now() + DRAIN_IDLE).min(until);
+        match tokio::time::timeout_at(idle, body.frame()).await {
+            Ok(Some(Ok(_))) => {}
             _ => break,
         }
     }
 }
 
-/// Most bytes of a rejected body read and discarded: a few times the body limit (nothing is
-/// kept, so this costs time, bounded by [`DRAIN_TIMEOUT`], and no memory).
-pub(crate) fn drain_bound(max_body_bytes: usize) -> usize {
-    max_body_bytes.saturating_mul(4).saturating_add(1 << 20)
-}
-
 /// `e`, after reading what is left of `body` (see the module docs).
-pub(crate) async fn reject(state: &AppState, body: Body, e: ApiError) -> ApiError {
-    drain(body, drain_bound(state.config.max_body_bytes)).await;
+pub(crate) async fn reject(_state: &AppState, body: Body, e: ApiError) -> ApiError {
+    drain(body).await;
     e
 }
 

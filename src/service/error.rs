@@ -15,6 +15,11 @@
 //! | 413 | `too-many-points` | more input positions than the limit |
 //! | 415 | `unsupported-media-type` | missing or wrong `Content-Type` |
 //! | 422 | see [`Problem::slug`](crate::earth::Problem::slug) and below | valid JSON that cannot be used |
+//! | 400 | `invalid-input` | an OGC API – Processes execute request that is not one (unknown input, wrong type) |
+//! | 404 | `result-not-ready` | a job's result asked for before the job succeeded |
+//! | 422 | `invalid-reference` | an input `href` that is not one of this server's successful jobs |
+//! | 429 | `too-many-jobs` | as many jobs accepted and unfinished as the server runs (`Retry-After`) |
+//! | 503 | `store-full` | the job store has no room for another job (`Retry-After`) |
 //! | 503 | `overloaded` | the fitting slots and their queue are full (`Retry-After`) |
 //! | 503 | `timeout` | the request ran past its time budget (`Retry-After`) |
 //! | 500 | `internal` | a bug (logged; the detail says nothing more) |
@@ -201,6 +206,11 @@ pub fn title_of(slug: &str) -> &'static str {
         "invalid-points" => "Invalid points document",
         "nothing-to-fit" => "Nothing to fit",
         "output-too-large" => "Output too large",
+        "invalid-input" => "Invalid process input",
+        "invalid-reference" => "Invalid input reference",
+        "too-many-jobs" => "Too many jobs",
+        "store-full" => "Job store full",
+        "result-not-ready" => "Result not ready",
         other => crate::earth::error::title_of(other),
     }
 }

@@ -22,18 +22,18 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-const GEO_JSON: &str = "application/geo+json";
-const JSON: &str = "application/json";
+pub(crate) const GEO_JSON: &str = "application/geo+json";
+pub(crate) const JSON: &str = "application/json";
 
 /// Parses JSON; a UTF-8 byte order mark in front is skipped (RFC 8259 §8.1 lets a parser
 /// ignore it, and Windows tools write one).
-fn parse_json(bytes: &[u8]) -> Result<Value, ApiError> {
+pub(crate) fn parse_json(bytes: &[u8]) -> Result<Value, ApiError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     serde_json::from_slice(bytes)
         .map_err(|e| ApiError::malformed_json(format!("the body is not valid JSON: {e}")))
 }
 
-fn respond(content_type: &'static str, body: Vec<u8>) -> Response {
+pub(crate) fn respond(content_type: &'static str, body: Vec<u8>) -> Response {
     let mut res = (StatusCode::OK, body).into_response();
     res.headers_mut()
         .insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));
@@ -62,28 +62,68 @@ async fn geo(req: PostRequest, endpoint: GeoEndpoint) -> Result<Response, ApiErr
     let format = job.format;
     let out = accepted
         .run(endpoint.route(), move |bytes, cancel| {
-            let job = job.with_cancel(cancel.clone());
-            match job.topology {
-                Topology::Shared => coverage_work(bytes, &job, &config),
-                Topology::PerFeature => geo_work(bytes, endpoint, &job, &config, cancel),
-            }
+            let value = parse_json(bytes)?;
+            geo_run(value, endpoint, job, &config, cancel, &Progress::default())
         })
         .await?;
-    let content_type = match format {
+    Ok(respond(output_media_type(format), out))
+}
+
+/// The media type of a GeoJSON operation's output in `format`.
+pub(super) fn output_media_type(format: crate::earth::topology::OutputFormat) -> &'static str {
+    match format {
         crate::earth::topology::OutputFormat::TopoJson => JSON,
         crate::earth::topology::OutputFormat::GeoJson => GEO_JSON,
-    };
-    Ok(respond(content_type, out))
+    }
+}
+
+/// How far a computation is: curves (features) done out of a total, read by a job's status
+/// while the work runs (`/jobs/{id}` progress); requests ignore it.
+#[derive(Debug, Default)]
+pub(crate) struct Progress {
+    /// Features processed so far.
+    pub done: AtomicUsize,
+    /// Features to process (0 until the document has been parsed).
+    pub total: AtomicUsize,
+}
+
+impl Progress {
+    /// Per cent done, 0 to 100.
+    pub fn percent(&self) -> u8 {
+        let total = self.total.load(Ordering::Relaxed);
+        if total == 0 {
+            return 0;
+        }
+        let done = self.done.load(Ordering::Relaxed).min(total);
+        u8::try_from(done * 100 / total).unwrap_or(100)
+    }
+}
+
+/// The work of `/v1/fit`, `/v1/interpolate` and `/v1/evaluate` on a parsed document: the one
+/// path every front end of the service takes (the OGC API – Processes execution calls it
+/// too), with the options already checked into `job`.
+pub(crate) fn geo_run(
+    value: Value,
+    endpoint: GeoEndpoint,
+    job: Job,
+    config: &ServiceConfig,
+    cancel: &Cancel,
+    progress: &Progress,
+) -> Result<(Vec<u8>, usize, usize), ApiError> {
+    let job = job.with_cancel(cancel.clone());
+    match job.topology {
+        Topology::Shared => coverage_work(value, &job, config),
+        Topology::PerFeature => geo_work(value, endpoint, &job, config, cancel, progress),
+    }
 }
 
 /// `topology=shared`: the whole document fitted as one coverage
 /// ([`crate::earth::topology::fit_coverage`]), written as GeoJSON or TopoJSON.
 fn coverage_work(
-    bytes: &[u8],
+    value: Value,
     job: &Job,
     config: &ServiceConfig,
 ) -> Result<(Vec<u8>, usize, usize), ApiError> {
-    let value = parse_json(bytes)?;
     let doc = Document::parse(value, false)?;
     check_positions(&doc, config)?;
     let coverage = crate::earth::topology::fit_coverage(doc, job)?;
@@ -129,13 +169,13 @@ fn check_positions(doc: &Document, config: &ServiceConfig) -> Result<(), ApiErro
 
 /// Parses, fits (features in parallel, first error in input order wins) and serialises.
 fn geo_work(
-    bytes: &[u8],
+    value: Value,
     endpoint: GeoEndpoint,
     job: &Job,
     config: &ServiceConfig,
     cancel: &Cancel,
+    progress: &Progress,
 ) -> Result<(Vec<u8>, usize, usize), ApiError> {
-    let value = parse_json(bytes)?;
     let doc = Document::parse(value, endpoint == GeoEndpoint::Evaluate)?;
     if endpoint != GeoEndpoint::Evaluate {
         check_positions(&doc, config)?;
@@ -157,6 +197,7 @@ fn geo_work(
             config.max_output_points,
         ));
     }
+    progress.total.store(doc.slots.len(), Ordering::Relaxed);
     let lowest_failed = AtomicUsize::new(usize::MAX);
     let output_total = AtomicUsize::new(0);
     let results: Vec<Option<Result<crate::earth::ProcessedFeature, ApiError>>> = doc
@@ -168,6 +209,7 @@ fn geo_work(
                 return None;
             }
             let mut r = slot.process(job).map_err(ApiError::from);
+            progress.done.fetch_add(1, Ordering::Relaxed);
             if let Ok(p) = &r {
                 let total = output_total.fetch_add(p.stats.output_points, Ordering::Relaxed)
                     + p.stats.output_points;

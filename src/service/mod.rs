@@ -12,6 +12,7 @@
 //! | `POST /v1/sphere/fit`, `/interpolate`, `/evaluate` | the CLI's S^n JSON documents |
 //! | `GET /health`, `/openapi.yaml`, `/metrics` | liveness, contract, Prometheus text |
 //! | `GET /`, `/page/{asset}`, `/v1/limits` | the map page (`page.rs`, `web/`), its files, the limits |
+//! | `GET /` (JSON), `/conformance`, `/processes…`, `/jobs…`, `/collections…` | OGC API – Processes and Features (`ogc/`) |
 //!
 //! # Runtime
 //! CPU work runs on the blocking pool (the features of one request on rayon, in parallel),
@@ -25,13 +26,14 @@
 //! a canned 503 and close), a header read timeout that also closes idle keep-alive connections,
 //! and a bounded graceful shutdown. Bodies are read within `body_timeout` (408 past it, 400 for a
 //! body cut short) and count against a global byte budget for bodies in flight
-//! (`max_body_bytes_in_flight`); a body over the limit is read and discarded up to a bound before
+//! (`max_body_bytes_in_flight`); a body over the limit is read and discarded for a bounded time before
 //! the 413 is sent, so that clients that write the whole body before reading see it.
 
 mod body;
 pub(crate) mod error;
 mod handlers;
 pub(crate) mod metrics;
+mod ogc;
 mod page;
 pub(crate) mod query;
 mod request;
@@ -89,6 +91,19 @@ pub struct ServiceConfig {
     pub header_timeout: Duration,
     /// Open connections at once; past that, new connections get a canned 503 and are closed.
     pub max_connections: usize,
+    /// Where OGC API – Processes jobs and their results are kept (`ogc::store`); `None`: a
+    /// directory of this process's own under the system's temporary directory, made when the
+    /// first job is stored.
+    pub data_dir: Option<std::path::PathBuf>,
+    /// Time budget of one asynchronous job (it ends `failed` past it).
+    pub job_timeout: Duration,
+    /// Jobs accepted and not finished at once; past that, 429 with `Retry-After`.
+    pub max_jobs: usize,
+    /// Bytes the job store may hold on disk (results and status files); a result that does not
+    /// fit fails its job, a new job that does not fit is refused (503).
+    pub store_bytes: u64,
+    /// How long a finished job and its result are kept.
+    pub job_expiry: Duration,
 }
 
 impl Default for ServiceConfig {
@@ -106,6 +121,11 @@ impl Default for ServiceConfig {
             max_body_bytes_in_flight: 128 * 1024 * 1024,
             header_timeout: Duration::from_secs(10),
             max_connections: 1024,
+            data_dir: None,
+            job_timeout: Duration::from_secs(3600),
+            max_jobs: 4,
+            store_bytes: 1 << 30,
+            job_expiry: Duration::from_secs(24 * 3600),
         }
     }
 }
@@ -118,6 +138,8 @@ pub struct AppState {
     gate: Arc<FitGate>,
     /// Bytes of bodies in flight (one permit a byte).
     pub(crate) body_bytes: Arc<Semaphore>,
+    /// OGC API – Processes jobs (`ogc::store`).
+    pub(crate) jobs: Arc<ogc::JobStore>,
 }
 
 impl AppState {
@@ -134,11 +156,13 @@ impl AppState {
                 .max(config.max_body_bytes)
                 .min(Semaphore::MAX_PERMITS),
         ));
+        let jobs = Arc::new(ogc::JobStore::open(&config));
         AppState {
             config: Arc::new(config),
             metrics: Arc::new(Metrics::default()),
             gate: Arc::new(gate),
             body_bytes,
+            jobs,
         }
     }
 }
@@ -250,6 +274,7 @@ pub fn router(state: AppState) -> Router {
         .route("/health", get(handlers::health))
         .route("/openapi.yaml", get(handlers::openapi))
         .route("/metrics", get(handlers::metrics))
+        .merge(ogc::routes())
         .merge(page::routes())
         .fallback(handlers::not_found)
         .layer(DefaultBodyLimit::disable())

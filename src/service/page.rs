@@ -79,8 +79,20 @@ fn page_response(content_type: &'static str, body: &'static str) -> Response {
     res
 }
 
-async fn index() -> Response {
-    page_response("text/html; charset=utf-8", INDEX_HTML)
+/// `GET /`: the map page, or the OGC API landing page (JSON) for clients that ask for JSON
+/// ([`super::ogc::wants_json`]). `Vary: Accept` tells caches that the answer depends on it.
+async fn index(headers: axum::http::HeaderMap, uri: axum::http::Uri) -> Response {
+    if let Err(e) = super::ogc::check_format(uri.query()) {
+        return e.into_response();
+    }
+    let mut res = if super::ogc::wants_json(&headers, uri.query()) {
+        super::ogc::landing(&headers)
+    } else {
+        page_response("text/html; charset=utf-8", INDEX_HTML)
+    };
+    res.headers_mut()
+        .insert(header::VARY, HeaderValue::from_static("accept"));
+    res
 }
 
 async fn asset(Path(name): Path<String>) -> Response {

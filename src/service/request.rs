@@ -98,6 +98,11 @@ impl Accepted {
     ) -> Result<T, ApiError> {
         run_cpu(&self.state, route, self.start, self.body, work).await
     }
+
+    /// The body, for work that runs later under its own budget (an OGC API – Processes job).
+    pub(super) fn into_body(self) -> HeldBody {
+        self.body
+    }
 }
 
 type QueryPairs = Result<Query<Vec<(String, String)>>, QueryRejection>;

@@ -634,3 +634,36 @@ fn the_batch_keeps_the_records_after_a_failing_one() {
         .collect();
     assert_eq!(ids, [1, 2, 4]);
 }
+
+/// Python's urllib writes the whole body before it reads the answer: posting 300 MB to a server
+/// whose limit is 1 MB, it still gets the 413 (problem+json), because a rejected body is read
+/// and discarded for a bounded time, not up to a byte cap (a cap at 4x the limit reset this
+/// connection after 5 MB).
+#[test]
+fn python_urllib_posting_300_mb_gets_the_413() {
+    let srv = Server::start(&["--max-body-bytes", "1000000"]);
+    let script = r#"
+import sys, urllib.request, urllib.error
+req = urllib.request.Request(sys.argv[1], data=b" " * (300 << 20), method="POST",
+                             headers={"Content-Type": "application/geo+json"})
+try:
+    urllib.request.urlopen(req, timeout=60)
+    print("200")
+except urllib.error.HTTPError as e:
+    print(e.code, e.headers.get("Content-Type"))
+"#;
+    let t = Instant::now();
+    let out = Command::new("python3")
+        .args(["-c", script, &format!("http://{}/v1/fit", srv.addr)])
+        .output()
+        .expect("python3 runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        stdout.trim(),
+        "413 application/problem+json",
+        "{stdout} {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    eprintln!("300 MB refused with a 413 in {:?}", t.elapsed());
+    srv.assert_healthy(Duration::from_millis(500));
+}

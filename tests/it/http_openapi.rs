@@ -80,13 +80,71 @@ fn examples_of(spec: &Value, op: &Value) -> Vec<Example> {
     out
 }
 
+/// The job id of the path examples in `openapi.yaml` (`jobId`, `collectionId`): a call to such a
+/// path is made on a server that has just run one job, with that job's id in its place.
+const EXAMPLE_JOB: &str = "0123456789abcdef0123456789abcdef";
+
+/// Runs a small fit job on `app` and waits for it; returns its id.
+async fn run_job(app: &axum::Router) -> String {
+    let body = br#"{"inputs": {"data": {"type": "LineString", "coordinates": [[0, 0], [1, 1], [2, 0], [3, 1]]}}}"#;
+    let req = Request::post("/processes/fit/execution")
+        .header(header::CONTENT_TYPE, "application/json")
+        .header("prefer", "respond-async")
+        .body(Body::from(&body[..]))
+        .unwrap();
+    let res = app.clone().oneshot(req).await.unwrap();
+    assert_eq!(res.status(), 201);
+    let v: Value = serde_json::from_slice(
+        &axum::body::to_bytes(res.into_body(), usize::MAX)
+            .await
+            .unwrap(),
+    )
+    .unwrap();
+    let id = v["jobID"].as_str().unwrap().to_string();
+    for _ in 0..2000 {
+        let res = app
+            .clone()
+            .oneshot(
+                Request::get(format!("/jobs/{id}"))
+                    .body(Body::empty())
+                    .unwrap(),
+            )
+            .await
+            .unwrap();
+        let v: Value = serde_json::from_slice(
+            &axum::body::to_bytes(res.into_body(), usize::MAX)
+                .await
+                .unwrap(),
+        )
+        .unwrap();
+        if v["status"] == "successful" {
+            return id;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+    }
+    panic!("the example job did not finish");
+}
+
 async fn call(
     method: &str,
     uri: &str,
     ctype: Option<&str>,
     body: Vec<u8>,
 ) -> (u16, String, Vec<u8>) {
-    let app = router(AppState::new(ServiceConfig::default()));
+    static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let dir = std::env::temp_dir().join(format!(
+        "spherefit-it-openapi-{}-{}",
+        std::process::id(),
+        N.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    let app = router(AppState::new(ServiceConfig {
+        data_dir: Some(dir.clone()),
+        ..ServiceConfig::default()
+    }));
+    let mut uri = uri.to_string();
+    if uri.contains(EXAMPLE_JOB) {
+        uri = uri.replace(EXAMPLE_JOB, &run_job(&app).await);
+    }
     let mut req = Request::builder().method(method).uri(uri);
     if let Some(c) = ctype {
         req = req.header(header::CONTENT_TYPE, c);
@@ -104,6 +162,7 @@ async fn call(
         .await
         .unwrap()
         .to_vec();
+    let _ = std::fs::remove_dir_all(&dir);
     (status, ct, body)
 }
 

@@ -15,6 +15,7 @@ mod hostile_props;
 mod http;
 mod http_openapi;
 mod http_port;
+mod ogc;
 mod paper_reproduction;
 mod seam;
 mod small_rings;

@@ -24,8 +24,8 @@ use checks::{check_count, invalid_option};
 pub use checks::{check_degree, check_fit_options, check_target_max_error_rad, check_tolerance};
 pub use into_job::into_job;
 pub use raw::{
-    parse_json_number, OperationKind, OutputFormat, ParameterizationOption, ParseError, RawOptions,
-    Topology,
+    parse_json_number, OperationKind, OptionType, OutputFormat, ParameterizationOption, ParseError,
+    RawOptions, Topology,
 };
 
 /// Highest `precision` (decimals of output degrees): 1e-15 degrees is below f64 resolution.

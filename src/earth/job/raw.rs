@@ -340,6 +340,45 @@ impl RawOptions {
     }
 }
 
+/// The type of an option's value, for front ends that describe options before they read them
+/// (the OGC API – Processes input schemas are generated from this, and their JSON values are
+/// read back through [`RawOptions::set`], so the options keep one home).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OptionType {
+    /// A non-negative integer.
+    Integer,
+    /// A number, as JSON writes it.
+    Number,
+    /// `true` or `false`.
+    Boolean,
+    /// Free text (a property name, a list of times).
+    Text,
+    /// One of these names.
+    OneOf(&'static [&'static str]),
+}
+
+impl RawOptions {
+    /// The type of the option `name` (one of [`OperationKind::option_names`]); `None` for a
+    /// name that is no option. Kept beside [`RawOptions::set`], which it describes (a unit test
+    /// checks that `set` takes a value of every type given here).
+    pub fn option_type(name: &str) -> Option<OptionType> {
+        Some(match name {
+            "control_points" | "degree" | "iterations" | "samples" | "precision" => {
+                OptionType::Integer
+            }
+            "tolerance_m" | "spacing_m" | "spacing_s" | "beta1" | "beta2" => OptionType::Number,
+            "parameter_correction" | "drop_small_rings" => OptionType::Boolean,
+            "time_property" | "at" => OptionType::Text,
+            "knots" => OptionType::OneOf(&["adaptive", "geodesic", "euclidean", "uniform"]),
+            "parameterization" => OptionType::OneOf(&["chord", "centripetal", "uniform", "time"]),
+            "solver" => OptionType::OneOf(&["gls-pia-accelerated", "gls-pia", "gauss-newton"]),
+            "topology" => OptionType::OneOf(&["per-feature", "shared"]),
+            "format" => OptionType::OneOf(&["geojson", "topojson"]),
+            _ => return None,
+        })
+    }
+}
+
 /// `value` as one of the names of `T`; else `expected` says what it should be.
 fn named<T: FromStr>(
     value: &str,

@@ -297,3 +297,38 @@ fn every_option_name_is_one_that_set_reads_and_given_reports() {
         }
     }
 }
+
+/// The types [`RawOptions::option_type`] gives (from which the OGC API – Processes input
+/// schemas are made) are the ones `set` reads: every named value parses, and a value of
+/// another type is refused.
+#[test]
+fn option_types_describe_what_set_reads() {
+    for kind in [
+        OperationKind::Fit,
+        OperationKind::Interpolate,
+        OperationKind::Evaluate,
+    ] {
+        for name in kind.option_names() {
+            let t = RawOptions::option_type(name).unwrap_or_else(|| panic!("{name} has no type"));
+            let (good, bad): (Vec<&str>, &str) = match t {
+                OptionType::Integer => (vec!["3"], "1.5"),
+                OptionType::Number => (vec!["1.5", "-2e3"], "x"),
+                OptionType::Boolean => (vec!["true", "false"], "1"),
+                OptionType::Text => (vec!["t"], ""),
+                OptionType::OneOf(names) => (names.to_vec(), "no-such-name"),
+            };
+            for v in good {
+                RawOptions::default()
+                    .set(name, v)
+                    .unwrap_or_else(|e| panic!("{name}={v}: {e}"));
+            }
+            if t != OptionType::Text {
+                assert!(
+                    RawOptions::default().set(name, bad).is_err(),
+                    "{name}={bad}"
+                );
+            }
+        }
+    }
+    assert_eq!(RawOptions::option_type("no_such_option"), None);
+}
