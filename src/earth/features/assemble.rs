@@ -216,6 +216,12 @@ pub(super) fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: 
         let stored = sum(&|r: &CurveReport| r.stored_numbers);
         out.insert("tolerance_m".into(), json!(tolerance_m));
         out.insert("tolerance_met".into(), json!(met));
+        // The feature's bound: the worst of its parts' (each certified).
+        let two_way = reports
+            .iter()
+            .filter_map(|r| r.fields.get("two_way_distance_m").and_then(Value::as_f64))
+            .fold(0.0, f64::max);
+        out.insert("two_way_distance_m".into(), json!(two_way));
         out.insert("stored_numbers".into(), json!(stored));
         out.insert(
             "compression_ratio".into(),

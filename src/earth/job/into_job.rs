@@ -24,8 +24,10 @@ pub(super) fn conflict(option: &'static str, other: impl Into<String>, reason: &
 /// * `spacing_s` excludes `samples` and `spacing_m`; `samples` and `spacing_m` together are
 ///   "at most that far apart and at least that many".
 /// * `tolerance_m` excludes `control_points` (a tolerance fit chooses its own).
-/// * Defaults: the fit's are [`FitOptions::faithful`], precision [`DEFAULT_PRECISION`],
-///   per-feature topology, GeoJSON output, small rings kept.
+/// * Defaults: the fit's are [`FitOptions::faithful`], precision [`DEFAULT_PRECISION`] (with
+///   `tolerance_m`, [`precision_for_tolerance`]: the output is sized by the tolerance),
+///   per-feature topology, GeoJSON output, small rings kept, features carrying both geometry
+///   and spline.
 ///
 /// # Errors
 /// An [`EarthError`] with an empty pointer naming the option: [`Problem::ConflictingOptions`],
@@ -138,9 +140,12 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
         operation,
         output: OutputOptions {
             sampling,
-            precision: raw
-                .precision
-                .map_or(DEFAULT_PRECISION, |n| u32::try_from(n).unwrap_or(u32::MAX)),
+            // A tolerance sizes the output unless the precision is given.
+            precision: match (raw.precision, raw.tolerance_m) {
+                (Some(n), _) => u32::try_from(n).unwrap_or(u32::MAX),
+                (None, Some(t)) if kind == OperationKind::Fit => precision_for_tolerance(t),
+                (None, _) => DEFAULT_PRECISION,
+            },
         },
         limits: limits.clone(),
         cancel: Cancel::inherit(),
@@ -154,6 +159,7 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
         topology: raw.topology.unwrap_or_default(),
         format: raw.format.unwrap_or_default(),
         drop_small_rings: raw.drop_small_rings.unwrap_or(false),
+        carry: raw.carry.unwrap_or_default(),
     };
     job.validate()?;
     Ok(job)
