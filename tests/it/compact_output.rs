@@ -67,9 +67,16 @@ fn carry_writes_geometry_spline_or_both_and_evaluate_draws_the_spline() {
             b["properties"]["fit"]["two_way_distance_m"]
         );
         assert!(s["geometry"].is_null());
-        assert_eq!(
-            s["properties"]["fit"]["spline"],
-            b["properties"]["fit"]["spline"]
+        // The spline as a compact curve: base64 text, a fraction of the JSON document.
+        let compact = s["properties"]["fit"]["spline"]
+            .as_str()
+            .expect("base64 text");
+        let json_doc = serde_json::to_string(&b["properties"]["fit"]["spline"]).unwrap();
+        assert!(
+            compact.len() * 4 < json_doc.len(),
+            "{} vs {}",
+            compact.len(),
+            json_doc.len()
         );
     }
     // The spline alone is drawn again by evaluate: the same positions as `both` wrote (the
@@ -99,4 +106,85 @@ fn carry_writes_geometry_spline_or_both_and_evaluate_draws_the_spline() {
     // Not an option of evaluate.
     let out = run_spherefit(&["evaluate", "--carry", "spline", "-"], Some(b"{}"));
     assert_eq!(out.status.code(), Some(2));
+}
+
+/// A corrupt compact curve is a clear error with where: a failed record (exit 1) with the
+/// message and the pointer from the CLI.
+#[test]
+fn a_hostile_compact_curve_is_an_error_with_where() {
+    let spline = fit(&["--tolerance-m", "100", "--carry", "spline"]);
+    let mut bad = spline["features"][0].clone();
+    let text = bad["properties"]["fit"]["spline"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    // Version 2: the first byte's base64 digits ('A' 'Q' -> 'A' 'g').
+    bad["properties"]["fit"]["spline"] = Value::String(format!("Ag{}", &text[2..]));
+    let out = run_spherefit(&["evaluate", "-"], Some(&serde_json::to_vec(&bad).unwrap()));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("version 2") && err.contains("/properties/fit/spline"),
+        "{err}"
+    );
+    // Truncated: the header promises more than the bytes hold.
+    bad["properties"]["fit"]["spline"] = Value::String(text[..12].to_string());
+    let out = run_spherefit(&["evaluate", "-"], Some(&serde_json::to_vec(&bad).unwrap()));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("byte"), "{err}");
+}
+
+/// The service decodes a compact curve in `POST /v1/evaluate` and refuses a hostile one with
+/// 422 and a pointer to it.
+#[tokio::test]
+async fn the_service_evaluates_compact_curves_and_points_at_bad_ones() {
+    use axum::body::Body;
+    use axum::http::Request;
+    use tower::ServiceExt;
+    let app = spherefit::service::router(spherefit::service::AppState::new(
+        spherefit::service::ServiceConfig::default(),
+    ));
+    let post = |uri: &'static str, body: Value| {
+        let app = app.clone();
+        async move {
+            let res = app
+                .oneshot(
+                    Request::post(uri)
+                        .header("content-type", "application/geo+json")
+                        .body(Body::from(serde_json::to_vec(&body).unwrap()))
+                        .unwrap(),
+                )
+                .await
+                .unwrap();
+            let status = res.status().as_u16();
+            let bytes = axum::body::to_bytes(res.into_body(), usize::MAX)
+                .await
+                .unwrap();
+            (status, serde_json::from_slice::<Value>(&bytes).unwrap())
+        }
+    };
+    let input = crate::helpers::read_fixture_json("us_mexico_border_natural_earth.geojson");
+    let (s, fitted) = post("/v1/fit?tolerance_m=100&carry=spline", input.clone()).await;
+    assert_eq!(s, 200, "{fitted}");
+    assert!(fitted["features"][1]["geometry"].is_null());
+    let (s, drawn) = post("/v1/evaluate", fitted.clone()).await;
+    assert_eq!(s, 200, "{drawn}");
+    let (_, both) = post("/v1/fit?tolerance_m=100", input).await;
+    assert_eq!(
+        drawn["features"][1]["geometry"],
+        both["features"][1]["geometry"]
+    );
+    let mut bad = fitted;
+    bad["features"][1]["properties"]["fit"]["spline"] = Value::String("AQQBHAC/".into());
+    let (s, problem) = post("/v1/evaluate", bad).await;
+    assert_eq!(s, 422, "{problem}");
+    assert_eq!(
+        problem["pointer"], "/features/1/properties/fit/spline",
+        "{problem}"
+    );
+    assert!(
+        problem["detail"].as_str().unwrap().contains("byte"),
+        "{problem}"
+    );
 }

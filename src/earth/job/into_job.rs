@@ -146,6 +146,7 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
                 (None, Some(t)) if kind == OperationKind::Fit => precision_for_tolerance(t),
                 (None, _) => DEFAULT_PRECISION,
             },
+            compact_splines: raw.carry == Some(Carry::Spline),
         },
         limits: limits.clone(),
         cancel: Cancel::inherit(),

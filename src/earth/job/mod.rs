@@ -126,6 +126,9 @@ pub struct OutputOptions {
     pub sampling: Sampling,
     /// Decimals of output degrees (control points included).
     pub precision: u32,
+    /// Fits write their splines as compact curves (base64, [`crate::earth::curve::encode_compact`])
+    /// instead of JSON documents: set by `carry=spline`.
+    pub compact_splines: bool,
 }
 
 impl Default for OutputOptions {
@@ -133,6 +136,7 @@ impl Default for OutputOptions {
         OutputOptions {
             sampling: Sampling::Auto,
             precision: DEFAULT_PRECISION,
+            compact_splines: false,
         }
     }
 }
@@ -263,6 +267,7 @@ impl Job {
     /// Sets what each fitted feature carries (`carry`).
     pub fn carrying(mut self, carry: Carry) -> Job {
         self.carry = carry;
+        self.output.compact_splines = carry == Carry::Spline;
         self
     }
 

@@ -67,7 +67,8 @@ fn every_option_lands_in_its_place() {
                 spacing_m: 250.0,
                 samples: 20
             },
-            precision: 5
+            precision: 5,
+            compact_splines: false,
         }
     );
     assert!(j.drop_small_rings);
