@@ -693,8 +693,8 @@ fn topojson_of_polygons_split_at_the_antimeridian_nests_polygons_rings_and_arcs(
             })
             .collect();
         // The GeoJSON writes a few longitudes of rings cut at ±180 as `130.93499999999995`
-        // (shifted by 360° and back); the quantised arcs hold them on the grid, 130.935.
-        let grid = |x: f64| (x * 1e3).round() / 1e3;
+        // (shifted by 360° and back); the quantised arcs hold them on the grid.
+        let grid = |x: f64| (x * 1e7).round() / 1e7;
         let written: Vec<Vec<Ring>> = polygons(&f["geometry"])
             .into_iter()
             .map(|p| {

@@ -118,6 +118,18 @@ pub(super) fn assemble(
             let mut pieces = Vec::new();
             for (key, rings) in &polygons {
                 let has_alt = rings.iter().all(|r| r.has_alt);
+                // A ring kept whole because it is too small to fit can be smaller than the
+                // grid a tolerance chose (a sliver 1e-4 degrees wide at 3 decimals): its
+                // polygon is written at the default precision at least, so it keeps its
+                // positions apart.
+                let precision = if rings
+                    .iter()
+                    .any(|r| r.report.fields.contains_key("small_ring"))
+                {
+                    precision.max(crate::earth::DEFAULT_PRECISION)
+                } else {
+                    precision
+                };
                 let lonlat_rings: Vec<Vec<[f64; 3]>> = rings
                     .iter()
                     .map(|r| {

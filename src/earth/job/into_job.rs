@@ -140,10 +140,18 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
         operation,
         output: OutputOptions {
             sampling,
-            // A tolerance sizes the output unless the precision is given.
+            // A tolerance sizes a compact output (carry geometry or spline) unless the
+            // precision is given. Not the default output: refits of polygons that would
+            // cross (tightened down to 1 cm) and rings kept whole when too small to fit need
+            // finer than the tolerance's grid, which `carry=both` keeps as before.
             precision: match (raw.precision, raw.tolerance_m) {
                 (Some(n), _) => u32::try_from(n).unwrap_or(u32::MAX),
-                (None, Some(t)) if kind == OperationKind::Fit => precision_for_tolerance(t),
+                (None, Some(t))
+                    if kind == OperationKind::Fit
+                        && raw.carry.is_some_and(|c| c != Carry::Both) =>
+                {
+                    precision_for_tolerance(t)
+                }
                 (None, _) => DEFAULT_PRECISION,
             },
             compact_splines: raw.carry == Some(Carry::Spline),

@@ -326,11 +326,25 @@ fn a_tolerance_sizes_the_precision_unless_it_is_given() {
         into_job(raw, kind, &Limits::default()).unwrap()
     };
     let fit = OperationKind::Fit;
-    assert_eq!(job(&[("tolerance_m", "100")], fit).output.precision, 4);
     assert_eq!(
-        job(&[("tolerance_m", "100"), ("precision", "7")], fit)
+        job(&[("tolerance_m", "100"), ("carry", "geometry")], fit)
             .output
             .precision,
+        4
+    );
+    // The default output (carry both) keeps 7 decimals.
+    assert_eq!(job(&[("tolerance_m", "100")], fit).output.precision, 7);
+    assert_eq!(
+        job(
+            &[
+                ("tolerance_m", "100"),
+                ("carry", "spline"),
+                ("precision", "7")
+            ],
+            fit
+        )
+        .output
+        .precision,
         7
     );
     assert_eq!(job(&[], fit).output.precision, DEFAULT_PRECISION);
