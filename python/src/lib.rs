@@ -469,7 +469,7 @@ fn coverage(py: Python<'_>, rows: Vec<Option<Row>>, job: &Job) -> PyResult<FitCo
         .map_err(fail)?;
         let coverage = fit_coverage(doc, job).map_err(fail)?;
         let out_features = coverage.features.clone();
-        let collection = coverage.into_feature_collection();
+        let collection = coverage.into_feature_collection(job.carry);
         let mut outcomes = Vec::with_capacity(out_features.len());
         for (i, f) in out_features.into_iter().enumerate() {
             let has_fit = f["properties"].get("fit").is_some();

@@ -85,9 +85,10 @@ pub use features::{
 };
 pub use job::{
     check_degree, check_fit_options, check_target_max_error_rad, check_tolerance, into_job,
-    parse_json_number, InterpolateSettings, Job, Limits, Operation, OperationKind, OptionType,
-    OutputFormat, OutputOptions, ParameterizationOption, ParseError, RawOptions, TimeOptions,
-    Topology, DEFAULT_PRECISION, MAX_PRECISION,
+    parse_json_number, precision_for_tolerance, Carry, InterpolateSettings, Job, Limits, Operation,
+    OperationKind, OptionType, OutputFormat, OutputOptions, ParameterizationOption, ParseError,
+    RawOptions, TimeOptions, Topology, DEFAULT_PRECISION, MAX_PRECISION,
+    PRECISION_SHARE_OF_TOLERANCE,
 };
 pub use json_out::JsonOut;
 pub use lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, unit_to_lonlat, LonLat, EARTH_RADIUS_M};

@@ -1,24 +1,131 @@
 //! TopoJSON output of a coverage fitted with shared topology ([`super::topology`]).
 //!
-//! The topology's `arcs` are the dense fitted arcs, as rounded `[lon, lat]` positions (not
-//! quantised: no `transform`, positions are absolute, to `precision` decimals): arc `i` is arc
-//! `i` of the coverage, and its spline is `spherefit.arcs[i].spline` (degree, knots, control
-//! points as `[lon, lat]`), so the compact curves are stored once per arc. Polygon features
-//! rebuilt from arcs reference them (`~i` for an arc used reversed); anything else (lines,
-//! polygons split at the antimeridian) gets arcs of its own after those, without a spline.
-//! Every geometry carries the feature's `properties` (with `properties.fit`) and `id`; they
-//! sit in one GeometryCollection object named `collection`. `spherefit` also holds the
-//! dataset report (the GeoJSON output's `topology` member without its `arcs`).
+//! **Quantised, delta-encoded arcs.** The topology's `arcs` are the dense fitted arcs, written
+//! as TopoJSON's quantised integers: `transform` is `{"scale": [10^-p, 10^-p], "translate":
+//! [-180, -90]}` with `p` the output `precision` (which a tolerance chooses,
+//! [`crate::earth::precision_for_tolerance`]), each arc's first position is
+//! `[round((lon + 180)·10^p), round((lat + 90)·10^p)]` and every later one the difference from
+//! the previous. The grid is the decimal grid the fit already rounds its control points and
+//! dense positions to, so a reader's positions `k·10^-p − 180` are the rounded positions
+//! (within 1e-12 degrees, float arithmetic) and the certified two-way distance of the fit,
+//! measured on the rounded curve, covers what is written: quantisation adds nothing to it.
+//!
+//! Arc `i` is arc `i` of the coverage. Polygon features rebuilt from arcs reference them (`~i`
+//! for an arc used reversed); anything else (lines, polygons split at the antimeridian) gets
+//! arcs of its own after those. Every geometry carries the feature's `properties` (with
+//! `properties.fit`) and `id`; they sit in one GeometryCollection object named `collection`.
+//!
+//! **Splines, compact.** The foreign member `spherefit` holds the dataset report (the GeoJSON
+//! output's `topology` member without its `arcs`) and, unless the features carry only their
+//! geometry ([`Carry::Geometry`]), `splines`: for arc `i`, `null` when the arc as written *is*
+//! its spline (degree 1, uniform knots, control points = the arc's positions: stored once), or
+//! `{"degree", "control_points", "knots"?}` with the control points quantised and
+//! delta-encoded as the arcs are (same `transform`) and `knots` only when stored (not the
+//! clamped uniform ones). A degree-1 arc's spline is the great-circle polyline through its
+//! positions, which is what a TopoJSON reader draws.
 
-use super::topology::{arc_json, Coverage};
+use super::job::Carry;
+use super::topology::Coverage;
 use serde_json::{json, Map, Value};
 
 /// The name of the one object of the topology.
 pub const OBJECT_NAME: &str = "collection";
 
-/// The TopoJSON topology of a fitted coverage.
-pub fn to_topology(c: Coverage) -> Value {
-    let mut arcs: Vec<Value> = c.arcs.iter().map(|a| json!(a.dense_ll)).collect();
+/// The quantisation of a topology at `precision` decimals of a degree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quantisation {
+    /// Grid steps per degree: `10^precision`.
+    pub steps_per_degree: f64,
+}
+
+impl Quantisation {
+    /// The grid of `precision` decimals.
+    pub fn new(precision: u32) -> Quantisation {
+        Quantisation {
+            steps_per_degree: 10f64.powi(precision as i32),
+        }
+    }
+
+    /// The TopoJSON `transform` member.
+    pub fn transform(&self) -> Value {
+        let step = 1.0 / self.steps_per_degree;
+        json!({"scale": [step, step], "translate": [-180.0, -90.0]})
+    }
+
+    /// The grid index of a longitude and of a latitude.
+    fn index(&self, lon: f64, lat: f64) -> [i64; 2] {
+        [
+            ((lon + 180.0) * self.steps_per_degree).round() as i64,
+            ((lat + 90.0) * self.steps_per_degree).round() as i64,
+        ]
+    }
+
+    /// Positions `[lon, lat, extra...]` as a quantised, delta-encoded TopoJSON arc; values
+    /// after the first two (altitudes) are written as they are.
+    pub fn arc(&self, positions: &[Vec<f64>]) -> Value {
+        let mut prev = [0i64; 2];
+        let mut out = Vec::with_capacity(positions.len());
+        for (j, p) in positions.iter().enumerate() {
+            let k = self.index(p[0], p[1]);
+            let d = if j == 0 {
+                k
+            } else {
+                [k[0] - prev[0], k[1] - prev[1]]
+            };
+            prev = k;
+            let mut row: Vec<Value> = vec![json!(d[0]), json!(d[1])];
+            row.extend(p[2..].iter().map(|&x| json!(x)));
+            out.push(Value::Array(row));
+        }
+        Value::Array(out)
+    }
+
+    /// A GeoJSON position array (`[[lon, lat, ...], ...]`) as a quantised arc.
+    fn arc_of_json(&self, line: &Value) -> Value {
+        let positions: Vec<Vec<f64>> = line
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|p| {
+                        let v: Vec<f64> = p.as_array()?.iter().filter_map(Value::as_f64).collect();
+                        (v.len() >= 2).then_some(v)
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        self.arc(&positions)
+    }
+}
+
+/// The compact spline of arc `a` (see the module docs): `None` when the arc as written is its
+/// spline.
+fn compact_spline(a: &super::topology::FittedArc, q: &Quantisation) -> Option<Value> {
+    let uniform = a.spline.has_clamped_uniform_knots();
+    if a.spline.degree() == 1 && uniform && a.control_ll == a.dense_ll {
+        return None;
+    }
+    let ctrl: Vec<Vec<f64>> = a.control_ll.iter().map(|p| p.to_vec()).collect();
+    let mut m = Map::new();
+    m.insert("degree".into(), json!(a.spline.degree()));
+    m.insert("control_points".into(), q.arc(&ctrl));
+    if !uniform {
+        m.insert("knots".into(), json!(a.spline.knots()));
+    }
+    Some(Value::Object(m))
+}
+
+/// The TopoJSON topology of a fitted coverage, quantised at `precision` decimals, with the
+/// compact splines unless `carry` is [`Carry::Geometry`].
+pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
+    let q = Quantisation::new(precision);
+    let mut arcs: Vec<Value> = c
+        .arcs
+        .iter()
+        .map(|a| {
+            let ps: Vec<Vec<f64>> = a.dense_ll.iter().map(|p| p.to_vec()).collect();
+            q.arc(&ps)
+        })
+        .collect();
     let mut geometries = Vec::with_capacity(c.features.len());
     for (f, rings) in c.features.iter().zip(&c.feature_rings) {
         let geometry = &f["geometry"];
@@ -38,7 +145,10 @@ pub fn to_topology(c: Coverage) -> Value {
                     json!({"type": "MultiPolygon", "arcs": refs})
                 }
             }
-            None => convert(geometry, &mut arcs),
+            None => convert(geometry, &mut |line| {
+                arcs.push(q.arc_of_json(line));
+                (arcs.len() - 1) as i64
+            }),
         };
         if let Some(obj) = g.as_object_mut() {
             if let Some(id) = f.get("id") {
@@ -51,9 +161,17 @@ pub fn to_topology(c: Coverage) -> Value {
         geometries.push(g);
     }
     let mut report = c.report;
-    report["arcs"] = Value::Array(c.arcs.iter().map(arc_json).collect());
+    if carry != Carry::Geometry {
+        report["splines"] = Value::Array(
+            c.arcs
+                .iter()
+                .map(|a| compact_spline(a, &q).unwrap_or(Value::Null))
+                .collect(),
+        );
+    }
     let mut out = Map::new();
     out.insert("type".into(), json!("Topology"));
+    out.insert("transform".into(), q.transform());
     out.insert(
         "objects".into(),
         json!({ OBJECT_NAME: {"type": "GeometryCollection", "geometries": geometries} }),
@@ -63,12 +181,9 @@ pub fn to_topology(c: Coverage) -> Value {
     Value::Object(out)
 }
 
-/// A GeoJSON geometry as a TopoJSON one, its lines and rings appended to `arcs`.
-fn convert(g: &Value, arcs: &mut Vec<Value>) -> Value {
-    let mut new_arc = |line: &Value| -> i64 {
-        arcs.push(line.clone());
-        (arcs.len() - 1) as i64
-    };
+/// A GeoJSON geometry as a TopoJSON one, each of its lines and rings made an arc by `new_arc`
+/// (which returns the arc's index).
+fn convert(g: &Value, new_arc: &mut dyn FnMut(&Value) -> i64) -> Value {
     let kind = g.get("type").and_then(Value::as_str).unwrap_or("");
     let c = &g["coordinates"];
     let list = |v: &Value| v.as_array().cloned().unwrap_or_default();
@@ -92,7 +207,7 @@ fn convert(g: &Value, arcs: &mut Vec<Value>) -> Value {
         "GeometryCollection" => {
             let gs: Vec<Value> = list(&g["geometries"])
                 .iter()
-                .map(|x| convert(x, arcs))
+                .map(|x| convert(x, new_arc))
                 .collect();
             json!({"type": kind, "geometries": gs})
         }
@@ -101,7 +216,8 @@ fn convert(g: &Value, arcs: &mut Vec<Value>) -> Value {
 }
 
 /// The topology serialised with `"type": "Topology"` first (readers such as GDAL recognise a
-/// TopoJSON file by its first bytes), then `objects`, `arcs` and the other members.
+/// TopoJSON file by its first bytes), then `transform`, `objects`, `arcs` and the other
+/// members.
 pub fn to_bytes(topology: &Value) -> Vec<u8> {
     let mut out = b"{\"type\":\"Topology\"".to_vec();
     let Some(map) = topology.as_object() else {
@@ -109,9 +225,10 @@ pub fn to_bytes(topology: &Value) -> Vec<u8> {
     };
     let mut keys: Vec<&String> = map.keys().filter(|k| *k != "type").collect();
     let rank = |k: &str| match k {
-        "objects" => 0,
-        "arcs" => 1,
-        _ => 2,
+        "transform" => 0,
+        "objects" => 1,
+        "arcs" => 2,
+        _ => 3,
     };
     keys.sort_by_key(|k| rank(k));
     for k in keys {
@@ -140,7 +257,11 @@ mod tests {
     fn geometries_with_arcs_of_their_own_nest_their_indices_as_topojson_says() {
         let line = json!([[0, 0], [1, 1]]);
         let ring = json!([[0, 0], [1, 0], [1, 1], [0, 0]]);
-        let mut arcs = Vec::new();
+        let mut arcs: Vec<Value> = Vec::new();
+        let mut new_arc = |line: &Value| {
+            arcs.push(line.clone());
+            (arcs.len() - 1) as i64
+        };
         for (g, levels) in [
             (json!({"type": "LineString", "coordinates": line}), 1),
             (
@@ -153,15 +274,53 @@ mod tests {
                 3,
             ),
         ] {
-            let t = convert(&g, &mut arcs);
+            let t = convert(&g, &mut new_arc);
             assert_eq!(depth(&t["arcs"]), levels, "{g} -> {t}");
         }
         let t = convert(
             &json!({"type": "MultiPolygon", "coordinates": [[ring], [ring, ring]]}),
-            &mut arcs,
+            &mut new_arc,
         );
         // 7 arcs before: 1 + 2 (lines) + 1 + 3 (rings).
         assert_eq!(t["arcs"], json!([[[7]], [[8], [9]]]));
         assert_eq!(arcs.len(), 10);
+    }
+
+    #[test]
+    fn arcs_are_quantised_on_the_decimal_grid_and_delta_encoded() {
+        let q = Quantisation::new(4);
+        let arc = q.arc(&[
+            vec![-179.9999, -89.9999],
+            vec![179.9999, 89.9999, 12.5],
+            vec![10.1234, -0.0001],
+        ]);
+        assert_eq!(
+            arc,
+            json!([[1, 1], [3_599_998, 1_799_998, 12.5], [-1_698_765, -900_000]])
+        );
+        // Decoding as a TopoJSON reader does gives the decimal positions back.
+        let t = q.transform();
+        let (s, tr) = (t["scale"][0].as_f64().unwrap(), t["translate"].clone());
+        let mut k = [0i64; 2];
+        let mut decoded = Vec::new();
+        for p in arc.as_array().unwrap() {
+            k[0] += p[0].as_i64().unwrap();
+            k[1] += p[1].as_i64().unwrap();
+            decoded.push([
+                k[0] as f64 * s + tr[0].as_f64().unwrap(),
+                k[1] as f64 * s + tr[1].as_f64().unwrap(),
+            ]);
+        }
+        for (d, e) in decoded.iter().zip([
+            [-179.9999, -89.9999],
+            [179.9999, 89.9999],
+            [10.1234, -0.0001],
+        ]) {
+            assert!(
+                (d[0] - e[0]).abs() < 1e-12 && (d[1] - e[1]).abs() < 1e-12,
+                "{d:?}"
+            );
+        }
+        assert_eq!(t["scale"], json!([0.0001, 0.0001]));
     }
 }

@@ -142,11 +142,11 @@ fn coverage_work(
         ));
     }
     let bytes = match job.format {
-        crate::earth::topology::OutputFormat::TopoJson => {
-            crate::earth::topojson::to_bytes(&crate::earth::topojson::to_topology(coverage))
-        }
+        crate::earth::topology::OutputFormat::TopoJson => crate::earth::topojson::to_bytes(
+            &crate::earth::topojson::to_topology(coverage, job.output.precision, job.carry),
+        ),
         crate::earth::topology::OutputFormat::GeoJson => {
-            serde_json::to_vec(&coverage.into_feature_collection())
+            serde_json::to_vec(&coverage.into_feature_collection(job.carry))
                 .map_err(|_| ApiError::internal())?
         }
     };

@@ -6,6 +6,7 @@ mod applications;
 mod beta;
 mod cli_batch;
 mod cli_sphere;
+mod compact_output;
 mod compression;
 mod default_fit;
 mod earth;

@@ -111,9 +111,11 @@ pub(crate) struct OutputArgs {
     )]
     pub(super) spacing_s: Option<f64>,
     /// Decimals of output degrees, 0 to 15, control points included (7 decimals is 1.1 cm or
-    /// less); altitudes are rounded to millimetres
-    #[arg(long, value_name = "DECIMALS", default_value_t = crate::earth::DEFAULT_PRECISION)]
-    pub(super) precision: u32,
+    /// less); altitudes are rounded to millimetres. With --tolerance-m: the fewest whose
+    /// rounding stays within a tenth of the tolerance (100 m: 4, 1 km: 3), counted in the
+    /// certified bound [default: 7]
+    #[arg(long, value_name = "DECIMALS")]
+    pub(super) precision: Option<u32>,
     /// Most output points per curve: --samples, or what --spacing-m or automatic sampling
     /// need (the service's SPHEREFIT_MAX_SAMPLES)
     #[arg(long, value_name = "N", default_value_t = Limits::default().max_samples, help_heading = "Limits")]
@@ -177,6 +179,11 @@ pub(crate) struct FitOptionArgs {
     /// empty MultiPolygon
     #[arg(long, alias = "drop_small_rings", help_heading = "Fit")]
     pub(super) drop_small_rings: bool,
+    /// What each fitted feature carries: both (the dense geometry, and the spline in
+    /// properties.fit, which evaluate reads), geometry (no spline: the smallest file a plain
+    /// GeoJSON reader draws) or spline (geometry null: evaluate draws it)
+    #[arg(long, value_name = "WHAT", default_value = "both", value_parser = ["both", "geometry", "spline"], help_heading = "Input and output")]
+    pub(super) carry: String,
     /// Most control points per curve (the service's SPHEREFIT_MAX_CONTROL_POINTS)
     #[arg(long, value_name = "N", default_value_t = Limits::default().max_control_points, help_heading = "Limits")]
     pub(super) max_control_points: usize,
@@ -276,6 +283,7 @@ impl FitOptionArgs {
             tolerance_m: self.tolerance_m,
             time_property: self.time_property.clone(),
             drop_small_rings: self.drop_small_rings.then_some(true),
+            carry: self.carry.parse().ok(),
             ..RawOptions::default()
         }
     }
@@ -296,7 +304,7 @@ impl OutputArgs {
         raw.samples = self.samples;
         raw.spacing_m = self.spacing_m;
         raw.spacing_s = self.spacing_s;
-        raw.precision = Some(self.precision as usize);
+        raw.precision = self.precision.map(|p| p as usize);
     }
 }
 

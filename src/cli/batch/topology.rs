@@ -88,10 +88,10 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
     let coverage = fit_coverage(doc, &job).map_err(fail)?;
     let report = coverage.report.clone();
     let text = match format {
-        OutputFormat::TopoJson => {
-            crate::earth::topojson::to_bytes(&crate::earth::topojson::to_topology(coverage))
-        }
-        OutputFormat::GeoJson => serde_json::to_vec(&coverage.into_feature_collection())
+        OutputFormat::TopoJson => crate::earth::topojson::to_bytes(
+            &crate::earth::topojson::to_topology(coverage, job.output.precision, job.carry),
+        ),
+        OutputFormat::GeoJson => serde_json::to_vec(&coverage.into_feature_collection(job.carry))
             .map_err(|e| Failure::input(e.to_string()))?,
     };
     let out_path = batch.output.as_ref().filter(|p| p.as_os_str() != "-");

@@ -354,11 +354,19 @@ pub(super) fn finish_fit(
         origin: t.origin.clone(),
     });
 
-    let spline_doc = JsonOut::object([
-        ("degree", JsonOut::Value(json!(spline.degree()))),
-        ("knots", JsonOut::Numbers(spline.knots().to_vec())),
-        ("control_points", JsonOut::rows(&control_ll)),
-    ]);
+    let compact = out
+        .output
+        .compact_splines
+        .then(|| encode_compact(&spline, &control_ll, out.output.precision))
+        .flatten();
+    let spline_doc = match compact {
+        Some(text) => JsonOut::Value(Value::String(text)),
+        None => JsonOut::object([
+            ("degree", JsonOut::Value(json!(spline.degree()))),
+            ("knots", JsonOut::Numbers(spline.knots().to_vec())),
+            ("control_points", JsonOut::rows(&control_ll)),
+        ]),
+    };
     let mut fields = Map::new();
     fields.insert("max_error_m".into(), json!(round_m(rad_to_m(max_rad))));
     fields.insert(

@@ -32,6 +32,7 @@ use crate::sphere::AnyCurve;
 use crate::sphere::{fit, FitOptions, InputSite, PointSet, SphereError, SphericalBSpline};
 use serde_json::{json, Map, Value};
 
+mod compact;
 mod fitting;
 mod interpolation;
 mod line;
@@ -41,6 +42,7 @@ mod stored;
 mod times;
 mod tolerance_rule;
 
+pub use compact::{decode_compact, encode_compact, COMPACT_VERSION};
 pub use fitting::*;
 pub use interpolation::*;
 pub use line::*;

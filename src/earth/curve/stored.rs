@@ -3,14 +3,25 @@
 
 use super::*;
 
+/// Most control points a compact curve may declare. The decoder also refuses any count its
+/// bytes cannot hold, so what it allocates is bounded by the input's length either way.
+pub const MAX_COMPACT_CONTROL_POINTS: usize = 1_000_000;
+
 /// Reads a lon/lat curve document at `pointer`: a B-spline `{"degree", "knots",
-/// "control_points": [[lon, lat], ...]}` or a Beta-spline `{"type": "beta", "beta1", "beta2",
+/// "control_points": [[lon, lat], ...]}`, the same as a compact curve (a base64 string,
+/// [`decode_compact`]), or a Beta-spline `{"type": "beta", "beta1", "beta2",
 /// "segments"}`. `"crs"`, when present, must be `"lonlat"`.
 ///
 /// # Errors
 /// [`Problem::InvalidSpline`] or [`Problem::InvalidCoordinate`] at the offending field.
 pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, EarthError> {
     let invalid = |ptr: String, msg: String| EarthError::new(ptr, Problem::InvalidSpline(msg));
+    // A compact curve (`carry=spline`): the document it stands for, checked as any other.
+    if let Value::String(text) = v {
+        let doc = decode_compact(text, MAX_COMPACT_CONTROL_POINTS)
+            .map_err(|m| invalid(pointer.to_string(), m))?;
+        return curve_from_lonlat_json(&doc, pointer);
+    }
     let map = v.as_object().ok_or_else(|| {
         invalid(
             pointer.to_string(),

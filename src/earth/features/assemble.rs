@@ -118,6 +118,18 @@ pub(super) fn assemble(
             let mut pieces = Vec::new();
             for (key, rings) in &polygons {
                 let has_alt = rings.iter().all(|r| r.has_alt);
+                // A ring kept whole because it is too small to fit can be smaller than the
+                // grid a tolerance chose (a sliver 1e-4 degrees wide at 3 decimals): its
+                // polygon is written at the default precision at least, so it keeps its
+                // positions apart.
+                let precision = if rings
+                    .iter()
+                    .any(|r| r.report.fields.contains_key("small_ring"))
+                {
+                    precision.max(crate::earth::DEFAULT_PRECISION)
+                } else {
+                    precision
+                };
                 let lonlat_rings: Vec<Vec<[f64; 3]>> = rings
                     .iter()
                     .map(|r| {
@@ -216,6 +228,12 @@ pub(super) fn properties_object(kind: &str, mut reports: Vec<CurveReport>, job: 
         let stored = sum(&|r: &CurveReport| r.stored_numbers);
         out.insert("tolerance_m".into(), json!(tolerance_m));
         out.insert("tolerance_met".into(), json!(met));
+        // The feature's bound: the worst of its parts' (each certified).
+        let two_way = reports
+            .iter()
+            .filter_map(|r| r.fields.get("two_way_distance_m").and_then(Value::as_f64))
+            .fold(0.0, f64::max);
+        out.insert("two_way_distance_m".into(), json!(two_way));
         out.insert("stored_numbers".into(), json!(stored));
         out.insert(
             "compression_ratio".into(),

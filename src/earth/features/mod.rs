@@ -22,7 +22,7 @@ use super::curve::{curve_in_time, CurveOutput, CurveReport, LineRef, LineTimeInp
 use super::lonlat::lonlat_to_unit;
 use super::small_rings;
 use super::time::{motion, TimeOrigin, TIME_PROPERTIES};
-use super::{EarthError, Job, JsonOut, Operation, Problem};
+use super::{Carry, EarthError, Job, JsonOut, Operation, Problem};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
@@ -246,12 +246,17 @@ fn process_feature_at(
         }
         Operation::Evaluate => curves_of_fit(map, pointer, job)?,
     };
-    let Some((geometry_out, info, stats, time_props)) = result else {
+    let Some((mut geometry_out, mut info, stats, time_props)) = result else {
         return Ok(ProcessedFeature {
             feature: JsonOut::Value(feature.clone()),
             stats: FeatureStats::default(),
         });
     };
+    match job.carry {
+        Carry::Both => {}
+        Carry::Geometry => drop_splines(&mut info),
+        Carry::Spline => geometry_out = JsonOut::Value(Value::Null),
+    }
     // Every member but the input geometry (replaced, and not worth a deep copy), the bbox
     // and the properties (rebuilt below).
     let mut out: BTreeMap<String, JsonOut> = map
@@ -291,6 +296,28 @@ fn process_feature_at(
         feature: JsonOut::Object(out),
         stats,
     })
+}
+
+/// The members of `properties.fit` a feature keeps when it carries only its geometry
+/// (`carry=geometry`): the certified bound and whether it meets the tolerance. The rest of
+/// the report (errors, counts, the parts with their splines) is what made a fitted file larger
+/// than its input; the run's summary (`--stats`, the service's headers) still counts it.
+pub const GEOMETRY_ONLY_FIT_MEMBERS: [&str; 3] =
+    ["tolerance_met", "two_way_distance_m", "max_error_m"];
+
+/// `properties.fit` for `carry=geometry`: only [`GEOMETRY_ONLY_FIT_MEMBERS`] (for a fit
+/// without a tolerance, `two_way_distance_m` is left out by the report itself).
+fn drop_splines(info: &mut JsonOut) {
+    if let JsonOut::Object(m) = info {
+        m.retain(|k, _| GEOMETRY_ONLY_FIT_MEMBERS.contains(&k.as_str()));
+    }
+}
+
+/// [`drop_splines`] for a report held as a [`Value`] (a coverage's features).
+pub fn keep_geometry_only_members(fit: &mut Value) {
+    if let Value::Object(m) = fit {
+        m.retain(|k, _| GEOMETRY_ONLY_FIT_MEMBERS.contains(&k.as_str()));
+    }
 }
 
 /// Whether a `properties.fit` (or `interpolation`, `evaluation`) value is a report spherefit

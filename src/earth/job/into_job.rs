@@ -24,8 +24,10 @@ pub(super) fn conflict(option: &'static str, other: impl Into<String>, reason: &
 /// * `spacing_s` excludes `samples` and `spacing_m`; `samples` and `spacing_m` together are
 ///   "at most that far apart and at least that many".
 /// * `tolerance_m` excludes `control_points` (a tolerance fit chooses its own).
-/// * Defaults: the fit's are [`FitOptions::faithful`], precision [`DEFAULT_PRECISION`],
-///   per-feature topology, GeoJSON output, small rings kept.
+/// * Defaults: the fit's are [`FitOptions::faithful`], precision [`DEFAULT_PRECISION`] (with
+///   `tolerance_m`, [`precision_for_tolerance`]: the output is sized by the tolerance),
+///   per-feature topology, GeoJSON output, small rings kept, features carrying both geometry
+///   and spline.
 ///
 /// # Errors
 /// An [`EarthError`] with an empty pointer naming the option: [`Problem::ConflictingOptions`],
@@ -138,9 +140,21 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
         operation,
         output: OutputOptions {
             sampling,
-            precision: raw
-                .precision
-                .map_or(DEFAULT_PRECISION, |n| u32::try_from(n).unwrap_or(u32::MAX)),
+            // A tolerance sizes a compact output (carry geometry or spline) unless the
+            // precision is given. Not the default output: refits of polygons that would
+            // cross (tightened down to 1 cm) and rings kept whole when too small to fit need
+            // finer than the tolerance's grid, which `carry=both` keeps as before.
+            precision: match (raw.precision, raw.tolerance_m) {
+                (Some(n), _) => u32::try_from(n).unwrap_or(u32::MAX),
+                (None, Some(t))
+                    if kind == OperationKind::Fit
+                        && raw.carry.is_some_and(|c| c != Carry::Both) =>
+                {
+                    precision_for_tolerance(t)
+                }
+                (None, _) => DEFAULT_PRECISION,
+            },
+            compact_splines: raw.carry == Some(Carry::Spline),
         },
         limits: limits.clone(),
         cancel: Cancel::inherit(),
@@ -154,6 +168,7 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
         topology: raw.topology.unwrap_or_default(),
         format: raw.format.unwrap_or_default(),
         drop_small_rings: raw.drop_small_rings.unwrap_or(false),
+        carry: raw.carry.unwrap_or_default(),
     };
     job.validate()?;
     Ok(job)

@@ -24,8 +24,8 @@ use checks::{check_count, invalid_option};
 pub use checks::{check_degree, check_fit_options, check_target_max_error_rad, check_tolerance};
 pub use into_job::into_job;
 pub use raw::{
-    parse_json_number, OperationKind, OptionType, OutputFormat, ParameterizationOption, ParseError,
-    RawOptions, Topology,
+    parse_json_number, Carry, OperationKind, OptionType, OutputFormat, ParameterizationOption,
+    ParseError, RawOptions, Topology,
 };
 
 /// Highest `precision` (decimals of output degrees): 1e-15 degrees is below f64 resolution.
@@ -33,6 +33,29 @@ pub const MAX_PRECISION: u32 = 15;
 
 /// Default output precision: 7 decimals of a degree is 1.1 cm or less.
 pub const DEFAULT_PRECISION: u32 = 7;
+
+/// The share of a tolerance that rounding the output to `precision` may take when the
+/// precision is chosen from the tolerance ([`precision_for_tolerance`]): a tenth. Rounding moves
+/// a control point by at most [`crate::earth::curve::rounding_bound_rad`], and the fitter aims
+/// below the tolerance by 1.5 times that, so a tenth costs at most 15 % of the tolerance in the
+/// fit's aim; decimals beyond it are bytes that carry no information the tolerance asks for.
+pub const PRECISION_SHARE_OF_TOLERANCE: f64 = 0.1;
+
+/// The fewest decimals of a degree whose rounding moves a position by at most
+/// [`PRECISION_SHARE_OF_TOLERANCE`] of `tolerance_m` (at most [`DEFAULT_PRECISION`]: 7 decimals
+/// are 1.1 cm, below any tolerance worth asking for; a tolerance that is not a positive number
+/// gets the default, and is refused by [`Job::validate`]).
+///
+/// 100 m gives 4 decimals (rounding moves a position at most 7.9 m), 1 km gives 3, 25 m gives 5.
+pub fn precision_for_tolerance(tolerance_m: f64) -> u32 {
+    let allowed = PRECISION_SHARE_OF_TOLERANCE * crate::earth::lonlat::m_to_rad(tolerance_m);
+    if !(allowed.is_finite() && allowed > 0.0) {
+        return DEFAULT_PRECISION;
+    }
+    (0..DEFAULT_PRECISION)
+        .find(|&p| crate::earth::curve::rounding_bound_rad(p) <= allowed)
+        .unwrap_or(DEFAULT_PRECISION)
+}
 
 /// Bounds on the work one curve may ask for. Checked before fitting.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,6 +126,9 @@ pub struct OutputOptions {
     pub sampling: Sampling,
     /// Decimals of output degrees (control points included).
     pub precision: u32,
+    /// Fits write their splines as compact curves (base64, [`crate::earth::curve::encode_compact`])
+    /// instead of JSON documents: set by `carry=spline`.
+    pub compact_splines: bool,
 }
 
 impl Default for OutputOptions {
@@ -110,6 +136,7 @@ impl Default for OutputOptions {
         OutputOptions {
             sampling: Sampling::Auto,
             precision: DEFAULT_PRECISION,
+            compact_splines: false,
         }
     }
 }
@@ -149,6 +176,8 @@ pub struct Job {
     /// `properties.fit.dropped_rings`, instead of kept as a small valid ring
     /// ([`super::small_rings`]).
     pub drop_small_rings: bool,
+    /// What each fitted feature carries (`carry`): geometry, spline or both.
+    pub carry: Carry,
 }
 
 impl Operation {
@@ -173,6 +202,7 @@ impl Job {
             topology: Topology::PerFeature,
             format: OutputFormat::GeoJson,
             drop_small_rings: false,
+            carry: Carry::Both,
         }
     }
 
@@ -231,6 +261,13 @@ impl Job {
     /// Drops rings that collapse instead of keeping them (`drop_small_rings`).
     pub fn dropping_small_rings(mut self, drop: bool) -> Job {
         self.drop_small_rings = drop;
+        self
+    }
+
+    /// Sets what each fitted feature carries (`carry`).
+    pub fn carrying(mut self, carry: Carry) -> Job {
+        self.carry = carry;
+        self.output.compact_splines = carry == Carry::Spline;
         self
     }
 
@@ -375,6 +412,12 @@ impl Job {
                     },
                 ));
             }
+            if self.carry == Carry::Spline {
+                return bad(
+                    "carry",
+                    "a coverage's geometry is its shared arcs, which its features need: use carry both (the splines are written with the arcs) or geometry".into(),
+                );
+            }
             if self.time.fit_in_time.is_some() {
                 return bad(
                     "topology",
@@ -386,6 +429,12 @@ impl Job {
             return bad(
                 "format",
                 "TopoJSON output is made of shared arcs: give topology shared too".into(),
+            );
+        }
+        if self.carry != Carry::Both && self.operation.fit_options().is_none() {
+            return bad(
+                "carry",
+                "only a fit chooses what its features carry (evaluate writes geometry)".into(),
             );
         }
         if self.drop_small_rings && self.operation.fit_options().is_none() {

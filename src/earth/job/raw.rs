@@ -87,8 +87,27 @@ pub enum OutputFormat {
 
 from_names!(OutputFormat { "geojson" => OutputFormat::GeoJson, "topojson" => OutputFormat::TopoJson });
 
+/// What each fitted feature carries (`carry`): the dense geometry a plain GeoJSON reader
+/// draws, the spline a curve-aware reader evaluates, or both. Storing one of them is what makes
+/// an output small: the spline alone is a few numbers per curve, the geometry alone is what
+/// mapshaper would write.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Carry {
+    /// The geometry and, in `properties.fit`, the spline (the default: what a plain GeoJSON
+    /// reader needs, and what `evaluate` reads).
+    #[default]
+    Both,
+    /// The geometry only: `properties.fit` keeps its report but no `spline` (a degree-1 fit's
+    /// geometry is its curve; a higher degree's is the curve sampled).
+    Geometry,
+    /// The spline only: `geometry` is `null` and `evaluate` makes it again.
+    Spline,
+}
+
+from_names!(Carry { "both" => Carry::Both, "geometry" => Carry::Geometry, "spline" => Carry::Spline });
+
 /// The options of a fit on the Earth: the spline options every fit takes, then the Earth's.
-const FIT_OPTIONS: [&str; 16] = concat_names(
+const FIT_OPTIONS: [&str; 17] = concat_names(
     SPLINE_OPTIONS,
     [
         "tolerance_m",
@@ -100,6 +119,7 @@ const FIT_OPTIONS: [&str; 16] = concat_names(
         "topology",
         "format",
         "drop_small_rings",
+        "carry",
     ],
 );
 
@@ -200,6 +220,8 @@ pub struct RawOptions {
     pub topology: Option<Topology>,
     /// GeoJSON or TopoJSON output.
     pub format: Option<OutputFormat>,
+    /// What each fitted feature carries: geometry, spline or both.
+    pub carry: Option<Carry>,
     /// Beta-spline bias.
     pub beta1: Option<f64>,
     /// Beta-spline tension.
@@ -283,6 +305,7 @@ impl RawOptions {
             "drop_small_rings" => self.drop_small_rings = Some(boolean(value, &fail)?),
             "topology" => self.topology = Some(named(value, &fail, "per-feature or shared")?),
             "format" => self.format = Some(named(value, &fail, "geojson or topojson")?),
+            "carry" => self.carry = Some(named(value, &fail, "geometry, spline or both")?),
             "time_property" => self.time_property = Some(value.to_string()),
             "at" => self.at = Some(value.to_string()),
             _ => return Err(fail("an option of spherefit")),
@@ -305,6 +328,7 @@ impl RawOptions {
             drop_small_rings,
             topology,
             format,
+            carry,
             beta1,
             beta2,
             samples,
@@ -326,6 +350,7 @@ impl RawOptions {
             ("drop_small_rings", drop_small_rings.is_some()),
             ("topology", topology.is_some()),
             ("format", format.is_some()),
+            ("carry", carry.is_some()),
             ("beta1", beta1.is_some()),
             ("beta2", beta2.is_some()),
             ("samples", samples.is_some()),
@@ -374,6 +399,7 @@ impl RawOptions {
             "solver" => OptionType::OneOf(&["gls-pia-accelerated", "gls-pia", "gauss-newton"]),
             "topology" => OptionType::OneOf(&["per-feature", "shared"]),
             "format" => OptionType::OneOf(&["geojson", "topojson"]),
+            "carry" => OptionType::OneOf(&["both", "geometry", "spline"]),
             _ => return None,
         })
     }

@@ -67,7 +67,8 @@ fn every_option_lands_in_its_place() {
                 spacing_m: 250.0,
                 samples: 20
             },
-            precision: 5
+            precision: 5,
+            compact_splines: false,
         }
     );
     assert!(j.drop_small_rings);
@@ -288,6 +289,7 @@ fn every_option_name_is_one_that_set_reads_and_given_reports() {
                 "parameter_correction" | "drop_small_rings" => "true",
                 "topology" => "shared",
                 "format" => "topojson",
+                "carry" => "geometry",
                 "time_property" | "at" => "t",
                 _ => "3",
             };
@@ -331,4 +333,90 @@ fn option_types_describe_what_set_reads() {
         }
     }
     assert_eq!(RawOptions::option_type("no_such_option"), None);
+}
+
+#[test]
+fn a_tolerance_sizes_the_precision_unless_it_is_given() {
+    // Rounding at p decimals moves a position at most 0.5e-p * sqrt(2) degrees: 7.9 m at 4.
+    assert_eq!(precision_for_tolerance(100.0), 4);
+    assert_eq!(precision_for_tolerance(1000.0), 3);
+    assert_eq!(precision_for_tolerance(25.0), 5);
+    assert_eq!(precision_for_tolerance(0.01), DEFAULT_PRECISION);
+    assert_eq!(precision_for_tolerance(f64::NAN), DEFAULT_PRECISION);
+    for t in [0.5, 3.0, 10.0, 100.0, 1000.0, 5e4] {
+        let p = precision_for_tolerance(t);
+        let bound_m = crate::earth::rad_to_m(crate::earth::curve::rounding_bound_rad(p));
+        assert!(bound_m <= PRECISION_SHARE_OF_TOLERANCE * t, "{t} m: {p}");
+        if p > 0 {
+            // One decimal fewer would take more than the share.
+            let coarser = crate::earth::rad_to_m(crate::earth::curve::rounding_bound_rad(p - 1));
+            assert!(coarser > PRECISION_SHARE_OF_TOLERANCE * t, "{t} m: {p}");
+        }
+    }
+    let job = |o: &[(&str, &str)], kind| {
+        let mut raw = RawOptions::default();
+        for (k, v) in o {
+            raw.set(k, v).unwrap();
+        }
+        into_job(raw, kind, &Limits::default()).unwrap()
+    };
+    let fit = OperationKind::Fit;
+    assert_eq!(
+        job(&[("tolerance_m", "100"), ("carry", "geometry")], fit)
+            .output
+            .precision,
+        4
+    );
+    // The default output (carry both) keeps 7 decimals.
+    assert_eq!(job(&[("tolerance_m", "100")], fit).output.precision, 7);
+    assert_eq!(
+        job(
+            &[
+                ("tolerance_m", "100"),
+                ("carry", "spline"),
+                ("precision", "7")
+            ],
+            fit
+        )
+        .output
+        .precision,
+        7
+    );
+    assert_eq!(job(&[], fit).output.precision, DEFAULT_PRECISION);
+    assert_eq!(job(&[("carry", "spline")], fit).carry, Carry::Spline);
+    assert_eq!(job(&[], fit).carry, Carry::Both);
+}
+
+#[test]
+fn only_a_fit_chooses_what_features_carry() {
+    let mut raw = RawOptions::default();
+    raw.set("carry", "geometry").unwrap();
+    // Evaluate does not take the option at all.
+    let e = into_job(raw, OperationKind::Evaluate, &Limits::default()).unwrap_err();
+    assert!(
+        matches!(
+            e.problem,
+            Problem::InvalidOption {
+                option: "carry",
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let e = Job::evaluate()
+        .carrying(Carry::Geometry)
+        .validate()
+        .unwrap_err();
+    assert!(
+        matches!(
+            e.problem,
+            Problem::InvalidOption {
+                option: "carry",
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let mut raw = RawOptions::default();
+    assert_eq!(raw.set("carry", "all").unwrap_err().option, "carry");
 }

@@ -130,8 +130,9 @@ pub struct Coverage {
 
 impl Coverage {
     /// The GeoJSON FeatureCollection: the features, the input's foreign members (without a
-    /// stale `bbox`), and `topology` with the dataset report and every arc's spline.
-    pub fn into_feature_collection(self) -> Value {
+    /// stale `bbox`), and `topology` with the dataset report and every arc's report and
+    /// spline (without the spline when the features carry only their geometry).
+    pub fn into_feature_collection(self, carry: crate::earth::Carry) -> Value {
         let mut out = Map::new();
         out.insert("type".into(), json!("FeatureCollection"));
         for (k, v) in self.members {
@@ -140,7 +141,18 @@ impl Coverage {
             }
         }
         let mut report = self.report;
-        report["arcs"] = Value::Array(self.arcs.iter().map(arc_json).collect());
+        report["arcs"] = Value::Array(
+            self.arcs
+                .iter()
+                .map(|a| {
+                    let mut v = arc_json(a);
+                    if carry == crate::earth::Carry::Geometry {
+                        v.as_object_mut().map(|m| m.remove("spline"));
+                    }
+                    v
+                })
+                .collect(),
+        );
         out.insert("topology".into(), report);
         out.insert("features".into(), Value::Array(self.features));
         Value::Object(out)
@@ -263,8 +275,13 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         let Source::Feature { feature, .. } = &slot.source else {
             continue;
         };
-        let rebuilt = rebuild.feature(fi, kind, feature, &by_feature[fi]);
+        let mut rebuilt = rebuild.feature(fi, kind, feature, &by_feature[fi]);
         totals.add(&rebuilt);
+        if job.carry == crate::earth::Carry::Geometry {
+            if let Some(fit) = rebuilt.feature.pointer_mut("/properties/fit") {
+                crate::earth::features::keep_geometry_only_members(fit);
+            }
+        }
         stats.curves += rebuilt.curves;
         stats.input_points += rebuilt.input_points;
         stats.output_points += rebuilt.output_points;

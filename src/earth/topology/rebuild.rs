@@ -218,7 +218,13 @@ impl Rebuild<'_> {
                     }
                     None => {
                         let (ring, how) =
-                            small_rings::kept_lonlat(&rings[*ri].points, Some(tol_rad), precision);
+                            // At the default precision at least: a kept ring can be smaller
+                            // than the grid a tolerance chose.
+                            small_rings::kept_lonlat(
+                                &rings[*ri].points,
+                                Some(tol_rad),
+                                precision.max(crate::earth::DEFAULT_PRECISION),
+                            );
                         parts.push(json!({"path": path, "arcs": [], "small_ring": how.name()}));
                         kept.push(sources[*ri].pointer.clone());
                         ll_rings.push(ring);

@@ -1,0 +1,197 @@
+//! Outputs sized by the tolerance (#30): with `tolerance_m` and no `precision`, coordinates are
+//! written at the decimals the tolerance needs and the certified bound is that of the rounded
+//! curve; `carry` chooses geometry, spline or both.
+
+use crate::helpers::{fixture_path, run_spherefit};
+use serde_json::Value;
+
+fn fit(args: &[&str]) -> Value {
+    let mut all = vec!["fit", "-q"];
+    all.extend_from_slice(args);
+    let border = fixture_path("us_mexico_border_natural_earth.geojson");
+    all.push(&border);
+    let out = run_spherefit(&all, None);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON out")
+}
+
+/// Most decimals of any coordinate of the geometries.
+fn most_decimals(v: &Value) -> usize {
+    match v {
+        Value::Array(a) => a.iter().map(most_decimals).max().unwrap_or(0),
+        Value::Number(n) => n.to_string().split('.').nth(1).map_or(0, str::len),
+        _ => 0,
+    }
+}
+
+#[test]
+fn a_tolerance_writes_the_decimals_it_needs_and_the_bound_covers_them() {
+    let sized = fit(&["--tolerance-m", "100", "--carry", "geometry"]);
+    let full = fit(&[
+        "--tolerance-m",
+        "100",
+        "--carry",
+        "geometry",
+        "--precision",
+        "7",
+    ]);
+    for (f, g) in sized["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(full["features"].as_array().unwrap())
+    {
+        assert!(most_decimals(&f["geometry"]["coordinates"]) <= 4);
+        assert!(most_decimals(&g["geometry"]["coordinates"]) > 4);
+        let fit = &f["properties"]["fit"];
+        assert_eq!(fit["tolerance_met"], true, "{fit}");
+        assert!(fit["two_way_distance_m"].as_f64().unwrap() <= 100.0);
+    }
+    let bytes = |v: &Value| serde_json::to_vec(v).unwrap().len();
+    assert!(bytes(&sized) < bytes(&full), "fewer decimals, fewer bytes");
+}
+
+#[test]
+fn carry_writes_geometry_spline_or_both_and_evaluate_draws_the_spline() {
+    let p4 = ["--tolerance-m", "100", "--precision", "4"];
+    let both = fit(&p4);
+    let geometry = fit(&[&p4[..], &["--carry", "geometry"]].concat());
+    let spline = fit(&[&p4[..], &["--carry", "spline"]].concat());
+    for i in 0..3 {
+        let (b, g, s) = (
+            &both["features"][i],
+            &geometry["features"][i],
+            &spline["features"][i],
+        );
+        assert_eq!(g["geometry"], b["geometry"]);
+        assert!(g["properties"]["fit"].get("spline").is_none());
+        assert_eq!(
+            g["properties"]["fit"]["two_way_distance_m"],
+            b["properties"]["fit"]["two_way_distance_m"]
+        );
+        assert!(s["geometry"].is_null());
+        // The spline as a compact curve: base64 text, a fraction of the JSON document.
+        let compact = s["properties"]["fit"]["spline"]
+            .as_str()
+            .expect("base64 text");
+        let json_doc = serde_json::to_string(&b["properties"]["fit"]["spline"]).unwrap();
+        assert!(
+            compact.len() * 4 < json_doc.len(),
+            "{} vs {}",
+            compact.len(),
+            json_doc.len()
+        );
+    }
+    // The spline alone is drawn again by evaluate: the same positions as `both` wrote (the
+    // fits here are degree 1, whose curve is its geometry).
+    let dir = std::env::temp_dir().join(format!("spherefit-carry-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("spline.geojson");
+    std::fs::write(&path, serde_json::to_vec(&spline).unwrap()).unwrap();
+    let out = run_spherefit(
+        &["evaluate", "-q", "--precision", "4", path.to_str().unwrap()],
+        None,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let drawn: Value = serde_json::from_slice(&out.stdout).unwrap();
+    for i in 0..3 {
+        assert_eq!(drawn["features"][i]["properties"]["fit"]["degree"], 1);
+        assert_eq!(
+            drawn["features"][i]["geometry"], both["features"][i]["geometry"],
+            "feature {i}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    // Not an option of evaluate.
+    let out = run_spherefit(&["evaluate", "--carry", "spline", "-"], Some(b"{}"));
+    assert_eq!(out.status.code(), Some(2));
+}
+
+/// A corrupt compact curve is a clear error with where: a failed record (exit 1) with the
+/// message and the pointer from the CLI.
+#[test]
+fn a_hostile_compact_curve_is_an_error_with_where() {
+    let spline = fit(&["--tolerance-m", "100", "--carry", "spline"]);
+    let mut bad = spline["features"][0].clone();
+    let text = bad["properties"]["fit"]["spline"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    // Version 2: the first byte's base64 digits ('A' 'Q' -> 'A' 'g').
+    bad["properties"]["fit"]["spline"] = Value::String(format!("Ag{}", &text[2..]));
+    let out = run_spherefit(&["evaluate", "-"], Some(&serde_json::to_vec(&bad).unwrap()));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("version 2") && err.contains("/properties/fit/spline"),
+        "{err}"
+    );
+    // Truncated: the header promises more than the bytes hold.
+    bad["properties"]["fit"]["spline"] = Value::String(text[..12].to_string());
+    let out = run_spherefit(&["evaluate", "-"], Some(&serde_json::to_vec(&bad).unwrap()));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("byte"), "{err}");
+}
+
+/// The service decodes a compact curve in `POST /v1/evaluate` and refuses a hostile one with
+/// 422 and a pointer to it.
+#[tokio::test]
+async fn the_service_evaluates_compact_curves_and_points_at_bad_ones() {
+    use axum::body::Body;
+    use axum::http::Request;
+    use tower::ServiceExt;
+    let app = spherefit::service::router(spherefit::service::AppState::new(
+        spherefit::service::ServiceConfig::default(),
+    ));
+    let post = |uri: &'static str, body: Value| {
+        let app = app.clone();
+        async move {
+            let res = app
+                .oneshot(
+                    Request::post(uri)
+                        .header("content-type", "application/geo+json")
+                        .body(Body::from(serde_json::to_vec(&body).unwrap()))
+                        .unwrap(),
+                )
+                .await
+                .unwrap();
+            let status = res.status().as_u16();
+            let bytes = axum::body::to_bytes(res.into_body(), usize::MAX)
+                .await
+                .unwrap();
+            (status, serde_json::from_slice::<Value>(&bytes).unwrap())
+        }
+    };
+    let input = crate::helpers::read_fixture_json("us_mexico_border_natural_earth.geojson");
+    let (s, fitted) = post("/v1/fit?tolerance_m=100&carry=spline", input.clone()).await;
+    assert_eq!(s, 200, "{fitted}");
+    assert!(fitted["features"][1]["geometry"].is_null());
+    let (s, drawn) = post("/v1/evaluate", fitted.clone()).await;
+    assert_eq!(s, 200, "{drawn}");
+    let (_, both) = post("/v1/fit?tolerance_m=100&precision=4", input).await;
+    assert_eq!(
+        drawn["features"][1]["geometry"],
+        both["features"][1]["geometry"]
+    );
+    let mut bad = fitted;
+    bad["features"][1]["properties"]["fit"]["spline"] = Value::String("AQQBHAC/".into());
+    let (s, problem) = post("/v1/evaluate", bad).await;
+    assert_eq!(s, 422, "{problem}");
+    assert_eq!(
+        problem["pointer"], "/features/1/properties/fit/spline",
+        "{problem}"
+    );
+    assert!(
+        problem["detail"].as_str().unwrap().contains("byte"),
+        "{problem}"
+    );
+}
