@@ -313,7 +313,7 @@ fn drop_splines(info: &mut JsonOut) {
     }
 }
 
-/// [`drop_splines`] for a report held as a [`Value`] (a coverage's features).
+/// `drop_splines` for a report held as a [`Value`] (a coverage's features).
 pub fn keep_geometry_only_members(fit: &mut Value) {
     if let Value::Object(m) = fit {
         m.retain(|k, _| GEOMETRY_ONLY_FIT_MEMBERS.contains(&k.as_str()));

@@ -313,8 +313,8 @@ impl SphericalBSpline {
     }
 
     /// An upper bound of |C''(t)| (ambient, radians per unit of t squared) over `[t0, t1]`
-    /// when the interval lies within one knot span (see
-    /// [`crate::sphere::certify::bounds::triangle_acceleration_bound`]); infinity when it
+    /// when the interval lies within one knot span (`triangle_acceleration_bound` in
+    /// `sphere::certify::bounds`; proofs in `docs/certified-distance.md`); infinity when it
     /// crosses a knot, where the curve need not be twice differentiable.
     pub fn acceleration_bound(&self, t0: f64, t1: f64) -> f64 {
         let (lo, hi) = self.domain();
