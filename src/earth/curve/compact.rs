@@ -31,6 +31,7 @@
 //! curve it makes is then checked as a JSON spline is ([`curve_from_lonlat_json`]).
 
 use super::*;
+use crate::sphere::compress::coding::{put_unsigned, unzigzag, zigzag};
 
 /// The version byte this build writes and reads.
 pub const COMPACT_VERSION: u8 = 1;
@@ -182,22 +183,6 @@ pub fn decode_compact(text: &str, max_control_points: usize) -> Result<Value, St
         ));
     }
     Ok(json!({"degree": degree, "knots": knots, "control_points": ctrl}))
-}
-
-fn put_unsigned(out: &mut Vec<u8>, mut v: u64) {
-    while v >= 0x80 {
-        out.push((v as u8 & 0x7f) | 0x80);
-        v >>= 7;
-    }
-    out.push(v as u8);
-}
-
-fn zigzag(v: i64) -> u64 {
-    ((v << 1) ^ (v >> 63)) as u64
-}
-
-fn unzigzag(u: u64) -> i64 {
-    ((u >> 1) as i64) ^ -((u & 1) as i64)
 }
 
 /// Byte reader whose errors say where.

@@ -98,7 +98,8 @@ fn check_quantum(quantum_rad: f64) -> Result<(), CodingError> {
     }
 }
 
-fn put_unsigned(out: &mut Vec<u8>, mut v: u64) {
+/// Appends `v` as an unsigned LEB128 varint (7 bits a byte, high bit set on all but the last).
+pub(crate) fn put_unsigned(out: &mut Vec<u8>, mut v: u64) {
     while v >= 0x80 {
         out.push((v as u8 & 0x7f) | 0x80);
         v >>= 7;
@@ -106,11 +107,13 @@ fn put_unsigned(out: &mut Vec<u8>, mut v: u64) {
     out.push(v as u8);
 }
 
-fn zigzag(v: i64) -> u64 {
+/// Zigzag mapping of a signed value to an unsigned one (small magnitudes stay small).
+pub(crate) fn zigzag(v: i64) -> u64 {
     ((v << 1) ^ (v >> 63)) as u64
 }
 
-fn unzigzag(u: u64) -> i64 {
+/// The inverse of [`zigzag`].
+pub(crate) fn unzigzag(u: u64) -> i64 {
     ((u >> 1) as i64) ^ -((u & 1) as i64)
 }
 
