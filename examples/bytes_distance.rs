@@ -9,9 +9,10 @@
 //! never above the ordered distance. Segments along ±180° or from a pole (those of polygons
 //! cut at the antimeridian or closed along a pole, which the other file may draw uncut) are
 //! measured at their vertices only. Each sample's nearest segment is looked for near the
-//! previous sample's first (a window of 64 segments) and among all of them when that finds
-//! nothing within `--tolerance-m`, so a value at or below the tolerance is an upper bound of
-//! the sampled distance and one above it is exact.
+//! previous sample's first (a window of 64 segments) and among all of them whenever the
+//! window's nearest is farther than the largest distance so far (or than the tolerance), so
+//! the maximum is exact: a window that holds only another ring's segments can no longer
+//! inflate it (it did, by up to 209 m on the 50m countries, before 2026-12-05).
 //!
 //! `cargo run --release --example bytes_distance -- A.geojson B.geojson TOLERANCE_M`
 
@@ -153,7 +154,9 @@ fn directed(from: &[Vec<[f64; 3]>], to: &[Vec<[f64; 3]>], tol: f64) -> f64 {
                 let lo = at.saturating_sub(64);
                 let hi = (at + 64).min(segs.len());
                 let (mut e, mut j) = nearest(p, lo..hi);
-                if e > tol {
+                // The window's nearest is an upper bound: look at every segment whenever it
+                // could raise the maximum, so the maximum is exact.
+                if e > worst.min(tol) {
                     (e, j) = nearest(p, 0..segs.len());
                 }
                 at = j;
