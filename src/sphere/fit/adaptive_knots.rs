@@ -373,12 +373,26 @@ pub fn refine(
         }
         count[k] += 1;
     }
+    // An interior knot of multiplicity 1, which a joint next to it may replace.
+    let simple =
+        |i: usize| i > p && i < n_ctrl && knots[i - 1] < knots[i] && knots[i] < knots[i + 1];
+    let mut dropped: Vec<usize> = Vec::new();
     let mut split: Vec<(usize, f64, usize)> = (p..n_ctrl)
         .filter(|&k| worst[k] > threshold)
         .filter_map(|k| {
             let j = worst_at[k];
             let u = params[j];
             if turns[j] >= corner_angle_rad && u > knots[k] && u < knots[k + 1] {
+                // A joint within a quarter span of a simple knot replaces it: the short span
+                // left between them held too few data for its control points, and the cubic
+                // there looped away from the line while passing near its positions (1.8 km
+                // in 60 m of the Ireland–United Kingdom border, 10m).
+                let w = knots[k + 1] - knots[k];
+                if u - knots[k] < JOINT_NEAR_SHARE * w && simple(k) {
+                    dropped.push(k);
+                } else if knots[k + 1] - u < JOINT_NEAR_SHARE * w && simple(k + 1) {
+                    dropped.push(k + 1);
+                }
                 return Some((k, u, p));
             }
             if count[k] < 2 * REFINE_MIN_POINTS {
@@ -402,10 +416,14 @@ pub fn refine(
         return None;
     }
     split.sort_unstable_by_key(|s| s.0);
+    // Only the knots next to joints that are kept.
+    dropped.retain(|&i| split.iter().any(|s| s.2 > 1 && (s.0 == i || s.0 + 1 == i)));
     let mut out = Vec::with_capacity(knots.len() + added);
     let mut s = split.iter().peekable();
     for (k, &u) in knots.iter().enumerate() {
-        out.push(u);
+        if !dropped.contains(&k) {
+            out.push(u);
+        }
         if let Some(&&(_, v, mult)) = s.peek().filter(|x| x.0 == k) {
             out.extend(std::iter::repeat_n(v, mult));
             s.next();
@@ -414,5 +432,59 @@ pub fn refine(
     Some(out)
 }
 
+/// A joint this close to a simple knot (as a share of the span) replaces it.
+pub const JOINT_NEAR_SHARE: f64 = 0.25;
+
 /// A span is split between data parameters only if each half keeps at least this many.
 pub const REFINE_MIN_POINTS: usize = 2;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 51 evenly spaced parameters, the error high only at `at`, a sharp turn there.
+    fn one_bad_point(at: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let params: Vec<f64> = (0..=50).map(|j| j as f64 / 50.0).collect();
+        let mut errors = vec![0.0; params.len()];
+        let mut turns = vec![0.0; params.len()];
+        errors[at] = 1.0;
+        turns[at] = 1.5;
+        (params, errors, turns)
+    }
+
+    #[test]
+    fn a_joint_next_to_a_simple_knot_replaces_it() {
+        let knots = [0.0, 0.0, 0.0, 0.0, 0.3, 0.5, 1.0, 1.0, 1.0, 1.0];
+        // t = 0.32: 0.02 from the knot 0.3 in a span of 0.2.
+        let (params, errors, turns) = one_bad_point(16);
+        let out = refine(&knots, 3, &params, &errors, &turns, 0.8, 0.5, 10).unwrap();
+        assert_eq!(
+            out,
+            vec![0.0, 0.0, 0.0, 0.0, 0.32, 0.32, 0.32, 0.5, 1.0, 1.0, 1.0, 1.0]
+        );
+    }
+
+    #[test]
+    fn a_joint_mid_span_keeps_the_knots_around_it() {
+        let knots = [0.0, 0.0, 0.0, 0.0, 0.3, 0.5, 1.0, 1.0, 1.0, 1.0];
+        let (params, errors, turns) = one_bad_point(20);
+        let out = refine(&knots, 3, &params, &errors, &turns, 0.8, 0.5, 10).unwrap();
+        assert_eq!(
+            out,
+            vec![0.0, 0.0, 0.0, 0.0, 0.3, 0.4, 0.4, 0.4, 0.5, 1.0, 1.0, 1.0, 1.0]
+        );
+    }
+
+    #[test]
+    fn a_clamped_end_or_a_joint_is_never_dropped() {
+        // t = 0.02, next to the clamped start; t = 0.52, next to a joint at 0.5.
+        let knots = [0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0, 1.0];
+        for (at, want) in [(1, 0.02), (26, 0.52)] {
+            let (params, errors, turns) = one_bad_point(at);
+            let out = refine(&knots, 3, &params, &errors, &turns, 0.8, 0.5, 10).unwrap();
+            assert_eq!(out.len(), knots.len() + 3, "{out:?}");
+            assert_eq!(out.iter().filter(|&&u| u == want).count(), 3, "{out:?}");
+            assert_eq!(out.iter().filter(|&&u| u == 0.5).count(), 3, "{out:?}");
+        }
+    }
+}
