@@ -223,6 +223,8 @@ test('a file of compact curves is drawn through /v1/evaluate, and a corrupt one 
   const fits = JSON.parse(curves).features.map((f) => f.properties.fit);
   const tw = await page.$$eval('#features tbody td[data-field="two_way_distance_m"]', (tds) => tds.map((t) => Number(t.textContent)));
   assert.deepEqual(tw, fits.map((f) => f.two_way_distance_m));
+  const names = await page.$$eval('#features tbody th', (ths) => ths.map((t) => t.textContent));
+  assert.deepEqual(names, JSON.parse(curves).features.map((f, i) => `${i} · ${f.properties.name}`));
   await shot('06-compact-curves.png');
   // An option change does not send a file of curves to /v1/fit.
   await page.fill('#tolerance', '400');
