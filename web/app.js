@@ -1,5 +1,7 @@
 // The map page: load GeoJSON, fit it with POST /v1/fit (the public API, nothing private), draw
-// the input and the fit on the globe, list the numbers, download the results.
+// the input and the fit on the globe, list the numbers, download the results. A file of curves
+// without geometry (a fit with carry=spline: compact curves, or JSON splines) is drawn through
+// POST /v1/evaluate instead of fitted.
 import * as G from './globe.js';
 
 const $ = (id) => document.getElementById(id);
@@ -147,6 +149,10 @@ async function loadBlob(name, blob) {
   } catch {
     // The service says what is wrong with it, with the line and column.
   }
+  if (isCurvesFile(json)) {
+    await drawCurves(name, text, json);
+    return;
+  }
   state.input = readInput(name, text, json);
   const n = state.input.positions;
   el.info.textContent = `${name}: ${fmtBytes(blob.size)}, ${state.input.features.length} feature${state.input.features.length === 1 ? '' : 's'}, ${fmtInt(n)} line and ring positions`;
@@ -159,6 +165,76 @@ async function loadBlob(name, blob) {
   }
   fitView();
   fit(true);
+}
+
+/** Whether a document is curves to draw rather than lines to fit: every feature has no
+ * geometry and carries a fit's or an interpolation's spline (a compact curve, base64 text, or a
+ * JSON spline), as `carry=spline` writes them. */
+function isCurvesFile(json) {
+  const fs = documentFeatures(json).map(({ f }) => f);
+  const carries = (f) => {
+    const c = f && f.properties && (f.properties.fit || f.properties.interpolation);
+    return !!c && (c.spline != null || (Array.isArray(c.parts) && c.parts.some((p) => p && p.spline != null)));
+  };
+  return !!json && json.type !== undefined && fs.length > 0 && fs.every((f) => f && f.type === 'Feature' && f.geometry == null && carries(f));
+}
+
+/** The features of a /v1/fit or /v1/evaluate answer as the page draws and lists them. */
+function resultFeatures(json) {
+  const out = Array.isArray(json.features) ? json.features : [json];
+  return out.map((f, i) => {
+    const fit = f && f.properties && (f.properties.fit || f.properties.interpolation);
+    if (!fit) return { index: i, fit: null };
+    const lines = linesToVecs(geometryLines(f.geometry, '').map((l) => l.coords));
+    // Compact curves are text: only JSON splines have control points to draw.
+    const splines = (Array.isArray(fit.parts) ? fit.parts.map((p) => p.spline) : [fit.spline]).filter((s) => s && typeof s === 'object');
+    const controls = linesToVecs(splines.map((s) => s.control_points || []));
+    return { index: i, fit, feature: f, lines, controls, splines, distances: null };
+  });
+}
+
+/** Draws a file of curves: POST /v1/evaluate turns each stored curve back into a line. */
+async function drawCurves(name, text, json) {
+  const gen = state.fitGen;
+  state.input = { name, text, json, features: [], positions: 0, curves: true };
+  const n = documentFeatures(json).length;
+  el.info.textContent = `${name}: ${fmtBytes(text.length)}, ${n} stored curve${n === 1 ? '' : 's'} (no geometry)`;
+  const url = '/v1/evaluate';
+  el.request.textContent = `POST ${url}`;
+  el.request.dataset.url = url;
+  setStatus('fitting', `Drawing ${n} stored curve${n === 1 ? '' : 's'} (POST ${url})…`);
+  let res;
+  let body;
+  try {
+    res = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/geo+json' }, body: text });
+    body = await res.text();
+  } catch (e) {
+    if (gen !== state.fitGen) return;
+    setStatus('error', `The request failed: ${e.message}. Is the server still running?`);
+    draw();
+    return;
+  }
+  if (gen !== state.fitGen) return;
+  if (!res.ok) {
+    let problem = null;
+    try {
+      problem = JSON.parse(body);
+    } catch {
+      problem = { title: `HTTP ${res.status}`, status: res.status, detail: body.slice(0, 500) };
+    }
+    showProblem(problem, res.headers.get('Retry-After'));
+    setStatus('error', `The service could not draw these curves (${res.status} ${problem.title || ''}).`);
+    draw();
+    return;
+  }
+  const out = JSON.parse(body);
+  const features = resultFeatures(out);
+  state.result = { text: body, json: out, url, features, ms: 0, scaleMax: 0, curves: true };
+  renderTable();
+  updateDownloads();
+  const drawn = features.filter((f) => f.fit && f.lines.length).length;
+  setStatus('done', `Drew ${drawn} of ${features.length} stored curve${features.length === 1 ? '' : 's'} from ${name} (POST /v1/evaluate); nothing was fitted.`);
+  fitView();
 }
 
 async function loadSample() {
@@ -204,7 +280,7 @@ function updateModeControls() {
 /** Fits the input with the options shown, unless that exact fit is already shown or under way
  * (`force`: the form was submitted). */
 async function fit(force = false) {
-  if (!state.input || state.input.refused) return;
+  if (!state.input || state.input.refused || state.input.curves) return;
   const url = `/v1/fit?${query()}`;
   if (!force && state.lastFit && state.lastFit.url === url && state.lastFit.input === state.input) return;
   state.lastFit = { url, input: state.input };
@@ -254,15 +330,7 @@ async function fit(force = false) {
     return;
   }
   const json = JSON.parse(text);
-  const out = Array.isArray(json.features) ? json.features : [json];
-  const features = out.map((f, i) => {
-    const fit = f && f.properties && f.properties.fit;
-    if (!fit) return { index: i, fit: null };
-    const lines = linesToVecs(geometryLines(f.geometry, '').map((l) => l.coords));
-    const splines = Array.isArray(fit.parts) ? fit.parts.map((p) => p.spline).filter(Boolean) : fit.spline ? [fit.spline] : [];
-    const controls = linesToVecs(splines.map((s) => s.control_points || []));
-    return { index: i, fit, feature: f, lines, controls, splines, distances: null };
-  });
+  const features = resultFeatures(json);
   state.result = { text, json, url, features, ms, scaleMax: 0 };
   renderTable();
   updateDownloads();
@@ -479,7 +547,8 @@ function renderTable() {
   for (const f of r.features) {
     const tr = document.createElement('tr');
     tr.dataset.feature = f.index;
-    const name = state.input?.features[f.index]?.name;
+    // A file of curves has no input lines: the names are those of the drawn features.
+    const name = state.input?.features[f.index]?.name ?? (f.feature ? featureName(f.feature) : null);
     const th = document.createElement('th');
     th.scope = 'row';
     th.textContent = name == null ? String(f.index) : `${f.index} · ${name}`;
@@ -547,13 +616,35 @@ function download(name, text) {
   setTimeout(() => URL.revokeObjectURL(url), 10000);
 }
 
-/** The fitted collection without the dense lines: each fitted feature keeps properties.fit
- * (its splines) and gets a null geometry; POST /v1/evaluate turns it back into lines. */
-function compactCurves() {
-  const j = JSON.parse(state.result.text);
-  const strip = (f) => (f && f.properties && f.properties.fit ? { ...f, geometry: null } : f);
-  if (Array.isArray(j.features)) j.features = j.features.map(strip);
-  return JSON.stringify(strip(j));
+/** The fit shown, asked again with `carry=spline`: each fitted feature without its dense
+ * line, its curve a compact curve (base64 text in properties.fit.spline, or in each of
+ * properties.fit.parts) at the precision its tolerance needs. The page draws such a file
+ * (through POST /v1/evaluate), as `spherefit evaluate` and Python's `evaluate` do. */
+async function downloadCompactCurves() {
+  const r = state.result;
+  const input = state.input;
+  if (!r || !input) return;
+  if (r.curves) {
+    download(`${baseName()}.curves.geojson`, input.text);
+    return;
+  }
+  const url = `${r.url}&carry=spline`;
+  el.dlCurves.disabled = true;
+  setStatus('fitting', `Asking for the compact curves (POST ${url})…`);
+  try {
+    const res = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/geo+json' }, body: input.text });
+    const text = await res.text();
+    if (!res.ok) {
+      setStatus('error', `The service refused the compact curves (${res.status}).`);
+      return;
+    }
+    download(`${baseName()}.curves.geojson`, text);
+    setStatus('done', `Downloaded the compact curves (${fmtBytes(text.length)}, the fitted GeoJSON is ${fmtBytes(r.text.length)}).`);
+  } catch (e) {
+    setStatus('error', `The request failed: ${e.message}. Is the server still running?`);
+  } finally {
+    updateDownloads();
+  }
 }
 
 function updateDownloads() {
@@ -778,6 +869,8 @@ function redraw() {
 function fitView() {
   const vecs = [];
   for (const f of state.input?.features || []) for (const l of f.lines) for (const v of l) vecs.push(v);
+  // A file of curves has no input lines: the drawn curves then.
+  if (!vecs.length) for (const f of state.result?.features || []) for (const l of f.lines || []) for (const v of l) vecs.push(v);
   if (!vecs.length) {
     draw();
     return;
@@ -844,7 +937,7 @@ function wire() {
   });
   for (const input of [el.tolerance, el.cp]) input.addEventListener('input', () => refitSoon());
   el.dlFitted.addEventListener('click', () => download(`${baseName()}.fitted.geojson`, state.result.text));
-  el.dlCurves.addEventListener('click', () => download(`${baseName()}.curves.geojson`, compactCurves()));
+  el.dlCurves.addEventListener('click', downloadCompactCurves);
   el.cancel.addEventListener('click', () => {
     clearTimeout(refitTimer);
     if (state.abort) state.abort.abort();

@@ -102,7 +102,8 @@ def _assemble(
     columns: Dict[str, str],
     json_column: str,
 ):
-    """The output GeoDataFrame: input columns kept, geometry replaced where a curve was made."""
+    """The output GeoDataFrame: input columns kept, geometry replaced where a curve was made
+    (and missing where the curve is kept without it, ``carry="spline"``)."""
     import geopandas as gpd
     import pandas as pd
 
@@ -111,6 +112,8 @@ def _assemble(
     done = np.array([w is not None for w in wkbs], dtype=bool)
     if done.any():
         out_geoms[done] = shapely.from_wkb(np.array([w for w in wkbs if w is not None], dtype=object))
+    spline_only = np.array([w is None and i is not None for w, i in zip(wkbs, infos)], dtype=bool)
+    out_geoms[spline_only] = None
     if frame is not None:
         out = frame.copy()
         name = frame.geometry.name

@@ -162,11 +162,13 @@ fn option_failure(e: EarthError) -> Failure {
     }
 }
 
-/// One processed feature: `None` when it passed through unchanged.
-type Outcome = Option<(Vec<u8>, Value)>;
+/// One processed feature: `None` when it passed through unchanged; its WKB `None` when it has
+/// no geometry (`carry=spline`: the curve is in the properties alone).
+type Outcome = Option<(Option<Vec<u8>>, Value)>;
 
-/// What Python gets back: output WKB (None: keep the input geometry), the operation's
-/// properties object as JSON text, and its scalar fields as a dict, per feature.
+/// What Python gets back: output WKB (None and no properties: keep the input geometry; None
+/// with properties: no geometry, as `carry=spline` writes), the operation's properties object
+/// as JSON text, and its scalar fields as a dict, per feature.
 type Columns = (
     Vec<Option<Py<PyBytes>>>,
     Vec<Option<String>>,
@@ -181,6 +183,9 @@ fn earth_error(index: usize, e: EarthError) -> Failure {
 fn outcome(index: usize, feature: Value, key: &str) -> Result<Outcome, Failure> {
     let geometry = &feature["geometry"];
     let info = feature["properties"][key].clone();
+    if geometry.is_null() {
+        return Ok(Some((None, info)));
+    }
     let wkb = wkb_io::write(geometry).map_err(|m| {
         feature_failure(
             index,
@@ -189,7 +194,7 @@ fn outcome(index: usize, feature: Value, key: &str) -> Result<Outcome, Failure> 
             format!("writing the output WKB: {m}"),
         )
     })?;
-    Ok(Some((wkb, info)))
+    Ok(Some((Some(wkb), info)))
 }
 
 /// Runs `one` on every input in parallel, with the GIL released; the first error in input order
@@ -264,7 +269,7 @@ fn columns(py: Python<'_>, outcomes: Vec<Outcome>) -> PyResult<Columns> {
                 scalars.push(None);
             }
             Some((wkb, info)) => {
-                geoms.push(Some(PyBytes::new(py, &wkb).unbind()));
+                geoms.push(wkb.map(|w| PyBytes::new(py, &w).unbind()));
                 infos.push(Some(info.to_string()));
                 scalars.push(Some(scalar_fields(py, &info)?.unbind()));
             }

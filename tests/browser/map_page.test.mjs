@@ -4,7 +4,7 @@
 // paths can be tried with small files). Screenshots go to SPHEREFIT_SHOTS (target/browser).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { mkdtempSync, mkdirSync, readFileSync, rmSync } from 'node:fs';
+import { mkdtempSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -183,20 +183,71 @@ test('the downloads are the API’s answer and its compact curves', async () => 
   const [dl2] = await Promise.all([page.waitForEvent('download'), page.click('#download-curves')]);
   assert.equal(dl2.suggestedFilename(), 'us_mexico_border_natural_earth.curves.geojson');
   const curves = readFileSync(await dl2.path(), 'utf8');
+  // The fit shown, asked again with carry=spline: the service's own compact curves.
+  const compact = await api(`${url}&carry=spline`, readFileSync(BORDER));
+  assert.equal(compact.status, 200, compact.text);
+  assert.equal(curves, compact.text);
   const c = JSON.parse(curves);
   const e = JSON.parse(expected.text);
   assert.equal(c.features.length, e.features.length);
   c.features.forEach((f, i) => {
     assert.equal(f.geometry, null);
-    assert.deepEqual(f.properties, e.features[i].properties);
+    assert.equal(f.properties.name, e.features[i].properties.name);
+    // A compact curve is base64 text (version byte 1: it starts with "AQ"), not a JSON spline.
+    assert.equal(typeof f.properties.fit.spline, 'string');
+    assert.match(f.properties.fit.spline, /^AQ[A-Za-z0-9+/]*={0,2}$/);
+    assert.equal(f.properties.fit.tolerance_met, true);
   });
-  // Smaller by the dense geometry (which for a polyline-like tolerance fit is little more than
-  // its control points, so not by a fixed factor).
-  assert.ok(curves.length < expected.text.length, `${curves.length} vs ${expected.text.length}`);
+  assert.ok(curves.length * 2 < expected.text.length, `${curves.length} vs ${expected.text.length}`);
   // The compact file is something /v1/evaluate turns back into lines.
   const back = await api('/v1/evaluate', curves);
   assert.equal(back.status, 200, back.text);
   assert.equal(JSON.parse(back.text).features[2].geometry.type, 'LineString');
+  writeFileSync(path.join(SHOTS, 'border.curves.geojson'), curves);
+});
+
+test('a file of compact curves is drawn through /v1/evaluate, and a corrupt one is pointed at', async () => {
+  const curvesPath = path.join(SHOTS, 'border.curves.geojson');
+  const curves = readFileSync(curvesPath, 'utf8');
+  const evaluated = [];
+  const seen = (r) => { if (r.url().includes('/v1/')) evaluated.push(`${r.method()} ${new URL(r.url()).pathname}`); };
+  page.on('request', seen);
+  await page.setInputFiles('#file', curvesPath);
+  await page.waitForFunction(() => document.getElementById('status').dataset.state === 'done' && document.getElementById('request').dataset.url === '/v1/evaluate');
+  page.off('request', seen);
+  assert.deepEqual(evaluated, ['POST /v1/evaluate'], 'drawn, not fitted');
+  assert.match(await page.innerText('#status'), /Drew 3 of 3 stored curves/);
+  // The lines drawn are /v1/evaluate's: as many runs as when the fit itself was shown.
+  assert.ok(Number(await page.getAttribute('#map', 'data-drawn-fitted-runs')) >= 3);
+  assert.equal(await page.getAttribute('#map', 'data-drawn-input-runs'), '0');
+  const fits = JSON.parse(curves).features.map((f) => f.properties.fit);
+  const tw = await page.$$eval('#features tbody td[data-field="two_way_distance_m"]', (tds) => tds.map((t) => Number(t.textContent)));
+  assert.deepEqual(tw, fits.map((f) => f.two_way_distance_m));
+  const names = await page.$$eval('#features tbody th', (ths) => ths.map((t) => t.textContent));
+  assert.deepEqual(names, JSON.parse(curves).features.map((f, i) => `${i} · ${f.properties.name}`));
+  await shot('06-compact-curves.png');
+  // An option change does not send a file of curves to /v1/fit.
+  await page.fill('#tolerance', '400');
+  await page.waitForTimeout(600);
+  assert.match(await page.innerText('#status'), /Drew 3 of 3/);
+  await page.fill('#tolerance', '500');
+  // The download of a curves file is the file itself.
+  const [dl] = await Promise.all([page.waitForEvent('download'), page.click('#download-curves')]);
+  assert.equal(readFileSync(await dl.path(), 'utf8'), curves);
+
+  // A corrupt compact curve (version 2) is the service's 422, pointed at.
+  const bad = JSON.parse(curves);
+  bad.features[1].properties.fit.spline = `Ag${bad.features[1].properties.fit.spline.slice(2)}`;
+  await page.setInputFiles('#file', { name: 'bad.curves.geojson', mimeType: 'application/geo+json', buffer: Buffer.from(JSON.stringify(bad)) });
+  await page.waitForFunction(() => document.getElementById('status').dataset.state === 'error');
+  const text = await page.locator('#problem').innerText();
+  assert.match(text, /version 2 at byte 0/);
+  assert.match(text, /feature 1.*\/features\/1\/properties\/fit\/spline/s);
+  await shot('07-corrupt-compact-curve.png');
+
+  // Back to the border, fitted as before.
+  await page.setInputFiles('#file', BORDER);
+  await waitForFit('tolerance_m=500');
 });
 
 test('a slow fit can be cancelled and leaves no stale numbers', async () => {

@@ -195,3 +195,134 @@ async fn the_service_evaluates_compact_curves_and_points_at_bad_ones() {
         "{problem}"
     );
 }
+
+/// LEB128, as the compact stream writes its integers.
+fn varint(mut v: u64) -> Vec<u8> {
+    let mut out = Vec::new();
+    loop {
+        let b = (v & 0x7f) as u8;
+        v >>= 7;
+        if v == 0 {
+            out.push(b);
+            return out;
+        }
+        out.push(b | 0x80);
+    }
+}
+
+/// Every kind of hostile compact curve, in the second feature of a real `carry=spline` fit:
+/// the service answers 422 problem+json (`invalid-spline`) with the pointer to the string and
+/// the byte (or character) in `detail`; the CLI reports the record, the pointer and the same
+/// detail on stderr, writes the other features and exits 1, as for any record that cannot be
+/// processed (docs/cli.md: 2 is for usage and input that cannot be read at all).
+#[tokio::test]
+async fn every_kind_of_hostile_compact_curve_is_a_422_and_a_failed_record_naming_where() {
+    use axum::body::Body;
+    use axum::http::Request;
+    use base64::engine::general_purpose::STANDARD;
+    use base64::Engine as _;
+    use tower::ServiceExt;
+    let fitted = fit(&["--tolerance-m", "100", "--carry", "spline"]);
+    let good = STANDARD
+        .decode(
+            fitted["features"][1]["properties"]["fit"]["spline"]
+                .as_str()
+                .unwrap(),
+        )
+        .unwrap();
+    let half = 0.5f64.to_bits();
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        (
+            "wrong version",
+            [&[2u8][..], &good[1..]].concat(),
+            "version 2 at byte 0",
+        ),
+        (
+            "counts beyond the bytes",
+            [&[1u8, 3, 1][..], &varint(5000), &[0]].concat(),
+            "promises",
+        ),
+        ("truncated", good[..5].to_vec(), "bytes left"),
+        (
+            "varint over 64 bits",
+            [&[1u8, 3, 1, 3, 0][..], &[0xff; 11], &[0; 6]].concat(),
+            "longer than 64 bits",
+        ),
+        (
+            "decreasing knots",
+            [
+                &[1u8, 3, 1, 3, 5][..],
+                &varint(half),
+                &varint(0x8000_0000_0000_0001 - half),
+                &[0; 9],
+            ]
+            .concat(),
+            "knot 1 at byte",
+        ),
+        (
+            "trailing bytes",
+            [&good[..], &[0]].concat(),
+            "after the last control point",
+        ),
+    ];
+    let app = spherefit::service::router(spherefit::service::AppState::new(
+        spherefit::service::ServiceConfig::default(),
+    ));
+    let mut texts: Vec<(&str, String, &str)> = cases
+        .into_iter()
+        .map(|(what, b, msg)| (what, STANDARD.encode(b), msg))
+        .collect();
+    texts.push(("not base64", "AQ!=".into(), "not base64: character 2"));
+    for (what, text, message) in texts {
+        let mut bad = fitted.clone();
+        bad["features"][1]["properties"]["fit"]["spline"] = Value::String(text);
+        let body = serde_json::to_vec(&bad).unwrap();
+        let res = app
+            .clone()
+            .oneshot(
+                Request::post("/v1/evaluate")
+                    .header("content-type", "application/geo+json")
+                    .body(Body::from(body.clone()))
+                    .unwrap(),
+            )
+            .await
+            .unwrap();
+        assert_eq!(res.status().as_u16(), 422, "{what}");
+        assert_eq!(
+            res.headers()["content-type"],
+            "application/problem+json",
+            "{what}"
+        );
+        let bytes = axum::body::to_bytes(res.into_body(), usize::MAX)
+            .await
+            .unwrap();
+        let problem: Value = serde_json::from_slice(&bytes).unwrap();
+        assert_eq!(
+            problem["pointer"], "/features/1/properties/fit/spline",
+            "{what}: {problem}"
+        );
+        assert!(
+            problem["type"]
+                .as_str()
+                .unwrap()
+                .ends_with("invalid-spline"),
+            "{what}: {problem}"
+        );
+        let detail = problem["detail"].as_str().unwrap();
+        assert!(detail.contains(message), "{what}: {detail}");
+        let out = run_spherefit(&["evaluate", "-q", "-"], Some(&body));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{what}: {err}");
+        assert!(
+            err.contains("record 2: /features/1/properties/fit/spline"),
+            "{what}: {err}"
+        );
+        assert!(err.contains(message), "{what}: {err}");
+        let written: Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(
+            written["features"].as_array().unwrap().len(),
+            2,
+            "{what}: the other features are written"
+        );
+    }
+}

@@ -4,6 +4,7 @@
 mod accelerated;
 mod applications;
 mod beta;
+mod carry_roundtrip;
 mod cli_batch;
 mod cli_sphere;
 mod compact_output;

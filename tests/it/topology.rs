@@ -797,7 +797,7 @@ async fn the_service_fits_coverages_on_request() {
 /// Runs `scripts/coverage/topojson_read.mjs` (npm `topojson-client`, installed by
 /// `npm ci --prefix scripts/coverage`). False, with a notice, where node or the package is
 /// missing, unless `SPHEREFIT_TEST_TOOLS=required` (set by `.ci/run`).
-fn topojson_client(args: &[&str]) -> bool {
+pub(crate) fn topojson_client(args: &[&str]) -> bool {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let installed = root
         .join("scripts/coverage/node_modules/topojson-client")

@@ -26,12 +26,17 @@
 //!
 //! **Hostile input.** The decoder ([`decode_compact`]) reads counts before it allocates and
 //! refuses any count the remaining bytes cannot hold (each coordinate and knot takes at least
-//! one byte), varints longer than 64 bits, an unknown version, decreasing knots, latitudes
+//! one byte), varints longer than 64 bits, an unknown version, decreasing knots (a bit sum past
+//! infinity's bits, where the negative numbers lie, included), latitudes
 //! beyond ±90° and longitudes beyond ±180°, and trailing bytes, each with the byte offset; the
-//! curve it makes is then checked as a JSON spline is ([`curve_from_lonlat_json`]).
+//! curve it makes is then checked as a JSON spline is ([`curve_from_lonlat_json`]). The
+//! base64 is the `base64` crate's standard engine (padded, canonical: a last character with
+//! bits past the last byte is refused), its errors given with the character's offset.
 
 use super::*;
 use crate::sphere::compress::coding::{put_unsigned, unzigzag, zigzag};
+use base64::engine::general_purpose::STANDARD;
+use base64::{DecodeError, Engine as _};
 
 /// The version byte this build writes and reads.
 pub const COMPACT_VERSION: u8 = 1;
@@ -143,10 +148,15 @@ pub fn decode_compact(text: &str, max_control_points: usize) -> Result<Value, St
             bits = bits.checked_add(d).ok_or_else(|| {
                 format!("knot {j} at byte {at} overflows (the knots must not decrease)")
             })?;
-            let u = f64::from_bits(bits);
-            if !u.is_finite() {
-                return Err(format!("knot {j} at byte {at} is not a finite number"));
+            // Past the bits of infinity lie the NaNs and then, with the sign bit set, the
+            // negative numbers: a sum that gets there has gone below the knot before it (-0.0
+            // up to -MAX are finite, so `is_finite` alone would let a knot decrease).
+            if bits >= f64::INFINITY.to_bits() {
+                return Err(format!(
+                    "knot {j} at byte {at} is not a finite number at least the knot before it"
+                ));
             }
+            let u = f64::from_bits(bits);
             out.push(u);
         }
         out
@@ -237,73 +247,30 @@ impl Reader<'_> {
     }
 }
 
-const BASE64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-
-/// Standard base64 (RFC 4648 §4) with padding.
+/// Standard base64 (RFC 4648 §4, padded), by the `base64` crate.
 fn base64_encode(bytes: &[u8]) -> String {
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let v = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for i in 0..4 {
-            if i <= chunk.len() {
-                out.push(BASE64[((v >> (18 - 6 * i)) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
+    STANDARD.encode(bytes)
 }
 
-/// Decodes standard base64 with padding; errors name the character.
+/// Decodes standard padded base64; errors name the character (its offset in the text) where
+/// the crate reports one.
 fn base64_decode(text: &str) -> Result<Vec<u8>, String> {
-    let t = text.as_bytes();
-    if t.len() % 4 != 0 {
-        return Err(format!(
-            "the compact curve is not base64: {} characters, not a multiple of 4",
-            t.len()
-        ));
-    }
-    let mut out = Vec::with_capacity(t.len() / 4 * 3);
-    for (ci, chunk) in t.chunks(4).enumerate() {
-        let mut v = 0u32;
-        let mut pad = 0;
-        for (j, &c) in chunk.iter().enumerate() {
-            let d = match c {
-                b'A'..=b'Z' => c - b'A',
-                b'a'..=b'z' => c - b'a' + 26,
-                b'0'..=b'9' => c - b'0' + 52,
-                b'+' => 62,
-                b'/' => 63,
-                b'=' if j >= 2 && ci + 1 == t.len() / 4 => {
-                    pad += 1;
-                    0
-                }
-                _ => {
-                    return Err(format!(
-                        "the compact curve is not base64: character {} ({:?})",
-                        ci * 4 + j,
-                        c as char
-                    ))
-                }
-            };
-            if pad > 0 && c != b'=' {
-                return Err(format!(
-                    "the compact curve is not base64: character {} after padding",
-                    ci * 4 + j
-                ));
-            }
-            v = (v << 6) | u32::from(d);
+    STANDARD.decode(text).map_err(|e| match e {
+        DecodeError::InvalidByte(at, c) => format!(
+            "the compact curve is not base64: character {at} ({:?})",
+            c as char
+        ),
+        DecodeError::InvalidLength(n) => format!(
+            "the compact curve is not base64: {n} base64 characters, a length no padded base64 has"
+        ),
+        DecodeError::InvalidLastSymbol(at, c) => format!(
+            "the compact curve is not base64: character {at} ({:?}) has bits past the last byte",
+            c as char
+        ),
+        DecodeError::InvalidPadding => {
+            "the compact curve is not base64: its padding (`=`) is wrong or missing".to_string()
         }
-        let bytes = [(v >> 16) as u8, (v >> 8) as u8, v as u8];
-        out.extend_from_slice(&bytes[..3 - pad]);
-    }
-    Ok(out)
+    })
 }
 
 #[cfg(test)]
@@ -404,6 +371,14 @@ mod tests {
         dec.extend([0; 9]);
         let e = decode_compact(&text(&dec), 100).unwrap_err();
         assert!(e.contains("knot 1") && e.contains("byte"), "{e}");
+        // A difference that carries the bits past infinity into the negative numbers: a
+        // finite knot (-5e-324) below the one before it.
+        let mut neg = vec![1, 3, 1, 3, 5];
+        put_unsigned(&mut neg, 0.5f64.to_bits());
+        put_unsigned(&mut neg, 0x8000_0000_0000_0001 - 0.5f64.to_bits());
+        neg.extend([0; 9]);
+        let e = decode_compact(&text(&neg), 100).unwrap_err();
+        assert!(e.contains("knot 1 at byte"), "{e}");
         // A latitude past the pole; trailing bytes.
         let mut pole = vec![1, 0, 1, 2, 0, 0];
         put_unsigned(&mut pole, zigzag(91));
@@ -429,6 +404,14 @@ mod tests {
                 *first = head; // reach past the version check often
             }
             if let Ok(doc) = decode_compact(&base64_encode(&b), 10_000) {
+                let _ = curve_from_lonlat_json(&doc, "");
+            }
+        }
+
+        /// Random text, base64 or not, never panics the decoder either.
+        #[test]
+        fn random_text_is_an_error_or_a_curve(text in "[A-Za-z0-9+/=!]{0,48}") {
+            if let Ok(doc) = decode_compact(&text, 10_000) {
                 let _ = curve_from_lonlat_json(&doc, "");
             }
         }
