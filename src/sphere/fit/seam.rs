@@ -20,7 +20,6 @@
 
 use super::adaptive_knots::CORNER_ANGLE_RAD;
 use super::gls_pia::{fit, gls_pia_iteration_local, FitOptions, FitReport, IterationError};
-use super::metrics::measure;
 use super::metrics::{pointwise_errors, ErrorSums};
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::geometry::point::{exp_map, log_map, normalize, Dynamic, PointSet};
@@ -28,6 +27,9 @@ use crate::sphere::SphereError;
 
 /// GLS-PIA updates with the seam constraint after the open fit.
 pub const SEAM_ITERATIONS: usize = 30;
+
+/// The seam updates stop once one lowers the RMS error by less than this share of it.
+pub const SEAM_STAGNATION: f64 = 1e-3;
 
 /// True when a closed line (last point = first) turns by less than the corner angle at its
 /// seam: the direction into the last point and out of the first are nearly the same.
@@ -145,8 +147,11 @@ pub fn close_fitted(
             .collect(),
     );
     let sub_params: Vec<f64> = window.iter().map(|&j| params[j]).collect();
-    // The errors outside the window do not change: measured once, merged with each pass.
-    let outside = {
+    // The errors outside the window do not change: measured once, merged with each pass
+    // (nothing to measure when the window is the whole ring, as for every small ring).
+    let outside = if window.len() == params.len() {
+        ErrorSums::default()
+    } else {
         let mut sums = ErrorSums::default();
         let mut w = window.iter().peekable();
         let all = pointwise_errors(&current, points, &params);
@@ -169,12 +174,16 @@ pub fn close_fitted(
     let mut history = open.history.clone();
     let mut best: Option<(SphericalBSpline, super::metrics::ErrorMetrics)> = None;
     let mut iterations = open.iterations;
+    let mut previous_rms = f64::INFINITY;
     for _ in 0..SEAM_ITERATIONS {
         let before = current.clone();
         let sub =
             gls_pia_iteration_local(&mut current, &sub_points, &sub_params, options.step, moving);
         let m = whole(sub);
         history.push(IterationError::of(&m));
+        // An update that no longer pays ends them (after its projection).
+        let stalled = m.rms_error_rad >= previous_rms * (1.0 - SEAM_STAGNATION);
+        previous_rms = m.rms_error_rad;
         if best
             .as_ref()
             .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
@@ -183,8 +192,21 @@ pub fn close_fitted(
         }
         current = close_seam(&current, smooth)?;
         iterations += 1;
+        if stalled {
+            break;
+        }
     }
-    let m = measure(&current, points, &params);
+    // Only the window's errors changed.
+    let m = {
+        let mut sub = ErrorSums::default();
+        for (j, e) in pointwise_errors(&current, &sub_points, &sub_params)
+            .into_iter()
+            .enumerate()
+        {
+            sub.add(j, e);
+        }
+        whole(sub)
+    };
     if best
         .as_ref()
         .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
@@ -206,6 +228,7 @@ pub fn close_fitted(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sphere::fit::metrics::measure;
 
     fn ring(n: usize) -> PointSet {
         let rows: Vec<Vec<f64>> = (0..=n)
