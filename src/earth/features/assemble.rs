@@ -178,8 +178,10 @@ pub(super) fn assemble(
         .filter(|c| c.report.fields.contains_key("small_ring"))
         .map(|c| c.pointer.clone())
         .collect();
-    for c in &mut outputs {
-        refer_to_geometry(&mut c.report, &geometry, kind);
+    if job.output.splines_refer_to_geometry {
+        for c in &mut outputs {
+            refer_to_geometry(&mut c.report, &geometry, kind);
+        }
     }
     let mut info = properties_object(kind, outputs.into_iter().map(|c| c.report).collect(), job);
     if kind.ends_with("Polygon") {
