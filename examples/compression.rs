@@ -8,6 +8,7 @@
 //! scripts/compression_bench.sh --noisy-points 2000  # a shorter noisy track
 //! scripts/compression_bench.sh --ablation           # each fitter idea switched off in turn
 //! scripts/compression_bench.sh --time               # tracks in time: bytes per hour at an SED bound
+//! target/release/examples/compression --write-flights F.geojson  # the synthetic flights as GeoJSON
 //! ```
 //!
 //! `--time`: the fixture's timestamped GPS tracks and two synthetic 1 Hz tracks
@@ -377,6 +378,30 @@ fn two_way_cell(m: &Method, tol_m: f64) -> String {
     }
 }
 
+/// Writes the two synthetic flights (the transatlantic flight and the noisy 1 Hz track with
+/// jumps, `noisy_points` long) as a GeoJSON FeatureCollection of LineStrings at 7 decimals, for
+/// `scripts/bytes_bench.sh`.
+fn write_flights(path: &str, noisy_points: usize) {
+    let feature = |name: &str, line: &Line| {
+        let coords: Vec<[f64; 2]> = line
+            .points
+            .iter()
+            .map(|p| {
+                let (lon, lat) = spherefit::earth::unit_to_lonlat(&[p[0], p[1], p[2]]);
+                [(lon * 1e7).round() / 1e7, (lat * 1e7).round() / 1e7]
+            })
+            .collect();
+        serde_json::json!({"type": "Feature", "properties": {"name": name},
+            "geometry": {"type": "LineString", "coordinates": coords}})
+    };
+    let doc = serde_json::json!({"type": "FeatureCollection", "features": [
+        feature("flight NYC–LHR 1 km", &flight()),
+        feature("noisy 1 Hz track, jumps", &noisy_track_with_jumps(noisy_points)),
+    ]});
+    std::fs::write(path, serde_json::to_vec(&doc).unwrap())
+        .unwrap_or_else(|e| panic!("{path}: {e}"));
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let arg = |name: &str| {
@@ -388,6 +413,10 @@ fn main() {
     let noisy_points = arg("--noisy-points")
         .map(|n| n.parse().expect("--noisy-points N"))
         .unwrap_or(NOISY_POINTS);
+    if let Some(path) = arg("--write-flights") {
+        write_flights(&path, noisy_points);
+        return;
+    }
     let mut sets = data_sets(noisy_points);
     if let Some(only) = arg("--only") {
         sets.retain(|s| s.name.contains(&only));

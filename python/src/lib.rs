@@ -138,7 +138,11 @@ fn job_of(
 ) -> Result<Job, Failure> {
     let raw = raw_options(options)?;
     let job = into_job(raw, kind, &limits).map_err(option_failure)?;
-    Ok(job.with_cancel(Cancel::new()))
+    // The `fit` column is read back alone (`evaluate` gets no geometry): a degree-1 spline
+    // there keeps its control points instead of referring to the geometry's.
+    Ok(job
+        .splines_referring_to_geometry(false)
+        .with_cancel(Cancel::new()))
 }
 
 /// An option the Earth layer refused, a count past its limit saying so.

@@ -78,12 +78,18 @@ fn carry_writes_geometry_spline_or_both_and_evaluate_draws_the_spline() {
         let compact = s["properties"]["fit"]["spline"]
             .as_str()
             .expect("base64 text");
-        let json_doc = serde_json::to_string(&b["properties"]["fit"]["spline"]).unwrap();
+        // A degree-1 spline's JSON refers to the geometry (written once); the geometry itself,
+        // the same positions, takes several times the compact curve's bytes.
+        assert_eq!(
+            b["properties"]["fit"]["spline"]["control_points"],
+            "geometry"
+        );
+        let positions = serde_json::to_string(&b["geometry"]["coordinates"]).unwrap();
         assert!(
-            compact.len() * 4 < json_doc.len(),
+            compact.len() * 2 < positions.len(),
             "{} vs {}",
             compact.len(),
-            json_doc.len()
+            positions.len()
         );
     }
     // The spline alone is drawn again by evaluate: the same positions as `both` wrote (the
@@ -325,4 +331,100 @@ async fn every_kind_of_hostile_compact_curve_is_a_422_and_a_failed_record_naming
             "{what}: the other features are written"
         );
     }
+}
+
+/// With `carry=both`, a degree-1 spline's control points are its geometry's positions: the
+/// spline says so (`"control_points": "geometry"`, uniform knots left out) instead of writing
+/// them again, and `evaluate` reads them back from the geometry, for a LineString's own spline
+/// and for the parts of a MultiLineString, giving the same geometry.
+#[test]
+fn a_degree_one_fit_is_written_once_and_evaluates_to_the_same_geometry() {
+    let input = crate::helpers::read_fixture_json("us_mexico_border_natural_earth.geojson");
+    let lines: Vec<Value> = input["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["geometry"]["coordinates"].clone())
+        .collect();
+    let multi = serde_json::json!({"type": "FeatureCollection", "features": [
+        input["features"][2].clone(),
+        {"type": "Feature", "properties": {},
+         "geometry": {"type": "MultiLineString", "coordinates": [lines[0], lines[1]]}},
+    ]});
+    let run = |args: &[&str], stdin: &Value| -> Value {
+        let out = run_spherefit(args, Some(&serde_json::to_vec(stdin).unwrap()));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let both = run(&["fit", "-q", "--tolerance-m", "100", "-"], &multi);
+    let geometry_only = run(
+        &[
+            "fit",
+            "-q",
+            "--tolerance-m",
+            "100",
+            "--carry",
+            "geometry",
+            "--precision",
+            "7",
+            "-",
+        ],
+        &multi,
+    );
+    let line = &both["features"][0]["properties"]["fit"];
+    let parts = both["features"][1]["properties"]["fit"]["parts"]
+        .as_array()
+        .unwrap();
+    let splines: Vec<&Value> = std::iter::once(&line["spline"])
+        .chain(parts.iter().map(|p| &p["spline"]))
+        .collect();
+    for s in &splines {
+        assert_eq!(s["degree"], 1, "{s}");
+        assert_eq!(s["control_points"], "geometry", "{s}");
+        assert!(s.get("knots").is_none(), "uniform knots left out: {s}");
+    }
+    // Written once: the spline adds a few bytes, not a second copy of the positions.
+    let bytes = |v: &Value| serde_json::to_vec(v).unwrap().len();
+    let positions = bytes(&both["features"][0]["geometry"]);
+    assert!(
+        bytes(&both["features"][0]) < bytes(&geometry_only["features"][0]) + positions / 4,
+        "{} vs {} + {}",
+        bytes(&both["features"][0]),
+        bytes(&geometry_only["features"][0]),
+        positions
+    );
+    let drawn = run(&["evaluate", "-q", "--precision", "7", "-"], &both);
+    for i in 0..2 {
+        assert_eq!(
+            drawn["features"][i]["geometry"], both["features"][i]["geometry"],
+            "feature {i}"
+        );
+    }
+    // Without the geometry the marker stands for nothing: an invalid-spline error pointing at it.
+    let mut orphan = both["features"][1].clone();
+    orphan["geometry"] = Value::Null;
+    let out = run_spherefit(
+        &["evaluate", "-"],
+        Some(&serde_json::to_vec(&orphan).unwrap()),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("/properties/fit/parts/0/spline/control_points")
+            && err.contains("no geometry"),
+        "{err}"
+    );
+    // A bare spline document has no geometry to refer to.
+    let bare = serde_json::json!({"crs": "lonlat", "degree": 1, "control_points": "geometry"});
+    let out = run_spherefit(
+        &["evaluate", "-"],
+        Some(&serde_json::to_vec(&bare).unwrap()),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(0), "{err}");
+    assert!(err.contains("control_points"), "{err}");
 }

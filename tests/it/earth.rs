@@ -95,7 +95,10 @@ fn fit_and_tolerance_fit_count_stored_numbers_alike() {
     // (control points, degree, stored numbers) from the spline document in the output: 2
     // numbers per lon/lat control point, the interior knots unless uniform, the degree.
     let from_document = |out: &Value, uniform: bool| {
-        let spline = &out["properties"]["fit"]["spline"];
+        let spline = &crate::helpers::resolved_spline(
+            &out["properties"]["fit"]["spline"],
+            &out["geometry"]["coordinates"],
+        );
         let n = spline["control_points"].as_array().unwrap().len();
         let knots = spline["knots"].as_array().unwrap();
         let p = spline["degree"].as_u64().unwrap() as usize;

@@ -11,6 +11,30 @@ use std::process::{Child, ChildStderr, Command, Output, Stdio};
 /// Mean Earth radius (IUGG), metres per radian of geodesic angle.
 pub const EARTH_RADIUS_M: f64 = 6_371_008.8;
 
+/// A fit's spline document made whole: a degree-1 spline that refers to its feature's geometry
+/// (`"control_points": "geometry"`, knots left out when clamped uniform) gets `positions` (the
+/// geometry's at the part's path, as written) and its knots; any other is returned as it is.
+pub fn resolved_spline(
+    spline: &serde_json::Value,
+    positions: &serde_json::Value,
+) -> serde_json::Value {
+    if spline["control_points"] != "geometry" {
+        return spline.clone();
+    }
+    let rows: Vec<serde_json::Value> = positions
+        .as_array()
+        .expect("positions")
+        .iter()
+        .map(|p| serde_json::json!([p[0], p[1]]))
+        .collect();
+    let mut whole = spline.clone();
+    if whole.get("knots").is_none() {
+        whole["knots"] = serde_json::json!(clamped_uniform_knots(rows.len(), 1));
+    }
+    whole["control_points"] = serde_json::Value::Array(rows);
+    whole
+}
+
 /// Absolute path of a file under `fixtures/`. Tests read data only from there.
 pub fn fixture_path(name: &str) -> String {
     format!("{}/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))

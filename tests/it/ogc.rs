@@ -641,12 +641,13 @@ async fn jobs_survive_a_restart() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_store_budget_holds_and_dismissal_frees_it() {
     let dir = DataDir::new("budget");
-    // Room for two status files and a small result, not for the fit of 3 lines.
+    // Room for two status files and a small result, not for the fit of 6 lines (about 8.6 KB:
+    // degree-1 fits, whose splines refer to their geometry).
     let app = router(AppState::new(ServiceConfig {
         store_bytes: 2 * 4096 + 2000,
         ..dir.config()
     }));
-    let body = json!({"inputs": {"data": lines(3), "tolerance_m": 100}});
+    let body = json!({"inputs": {"data": lines(6), "tolerance_m": 100}});
     let a = submit(&app, "fit", &body).await;
     let v = wait(&app, &a).await;
     assert_eq!(v["status"], "failed");

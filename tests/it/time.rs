@@ -33,8 +33,9 @@ struct Spline {
 }
 
 impl Spline {
-    fn from_fit(fit: &Value) -> Spline {
-        let s = &fit["spline"];
+    /// The spline of `fit`, whose line is written at `positions` in the geometry.
+    fn from_fit(fit: &Value, positions: &Value) -> Spline {
+        let s = &crate::helpers::resolved_spline(&fit["spline"], positions);
         Spline {
             degree: s["degree"].as_u64().unwrap() as usize,
             knots: s["knots"]
@@ -139,7 +140,7 @@ fn the_sed_of_every_fixture_position_is_within_the_tolerance() {
             assert_eq!(fit["parameterization"], "time");
             assert_eq!(fit["tolerance_met"], true, "{tol}: {fit}");
             assert!(fit["two_way_distance_m"].as_f64().unwrap() <= tol);
-            let spline = Spline::from_fit(fit);
+            let spline = Spline::from_fit(fit, &f_out["geometry"]["coordinates"]);
             let times = f_in["properties"]["timestamps_unix_s"].as_array().unwrap();
             let coords = f_in["geometry"]["coordinates"].as_array().unwrap();
             let mut worst: f64 = 0.0;
@@ -177,7 +178,7 @@ fn without_time_the_same_tracks_are_not_within_the_sed() {
     {
         let fit = &f_out["properties"]["fit"];
         assert!(fit.get("time").is_none());
-        let spline = Spline::from_fit(fit);
+        let spline = Spline::from_fit(fit, &f_out["geometry"]["coordinates"]);
         let times = f_in["properties"]["timestamps_unix_s"].as_array().unwrap();
         let (t0, t1) = (
             times[0].as_f64().unwrap(),
@@ -248,7 +249,7 @@ fn speed_and_heading_from_the_derivative_match_the_known_motion() {
         let f = &ev["features"][0];
         assert_eq!(f["geometry"]["type"], "MultiPoint");
         let e = &f["properties"]["evaluation"];
-        let spline = Spline::from_fit(fit);
+        let spline = Spline::from_fit(fit, &fitted["features"][0]["geometry"]["coordinates"]);
         for (k, &t) in at.iter().enumerate() {
             // Position: the independent evaluation of the returned spline at u(t).
             let got = &f["geometry"]["coordinates"][k];
@@ -290,7 +291,7 @@ fn times_round_trip_through_the_dense_output() {
         track["properties"]["coordTimes"].as_array().unwrap().last()
     );
     let fit = &f["properties"]["fit"];
-    let spline = Spline::from_fit(fit);
+    let spline = Spline::from_fit(fit, &f["geometry"]["coordinates"]);
     for (k, (t, c)) in times.iter().zip(coords).enumerate() {
         let t = parse_time(t);
         assert_eq!(t, t0 + 30.0 * k as f64);
@@ -371,7 +372,10 @@ fn a_multilinestring_keeps_one_time_array_per_line() {
     // A time in the second line is evaluated on the second part; one in the gap is refused.
     let second = parse_time(&times[100]);
     let ev = post_ok(&format!("/v1/evaluate?at={second}"), &out);
-    let want = lonlat(&Spline::from_fit(&parts[1]).eval(param(&parts[1], second)));
+    let want = lonlat(
+        &Spline::from_fit(&parts[1], &f["geometry"]["coordinates"][1])
+            .eval(param(&parts[1], second)),
+    );
     let got = &ev["features"][0]["geometry"]["coordinates"][0];
     assert!(
         (got[0].as_f64().unwrap() - want.0).abs() < 1.5e-7,
@@ -394,7 +398,7 @@ fn a_record_repeated_exactly_is_dropped_and_a_stop_is_kept() {
     let fit = &out["features"][0]["properties"]["fit"];
     assert_eq!(fit["input_points"], 6);
     assert_eq!(fit["tolerance_met"], true, "{fit}");
-    let spline = Spline::from_fit(fit);
+    let spline = Spline::from_fit(fit, &out["features"][0]["geometry"]["coordinates"]);
     let stop = unit(0.002, 0.0);
     for t in [20.0, 25.0, 30.0] {
         let d = angle(&spline.eval(param(fit, t)), &stop) * EARTH_RADIUS_M;

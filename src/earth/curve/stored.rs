@@ -7,6 +7,96 @@ use super::*;
 /// bytes cannot hold, so what it allocates is bounded by the input's length either way.
 pub const MAX_COMPACT_CONTROL_POINTS: usize = 1_000_000;
 
+/// The value of a degree-1 spline's `control_points` in `properties.fit` that stands for the
+/// positions of the feature's own geometry: `{"degree": 1, "control_points": "geometry"}`.
+///
+/// A degree-1 fit's dense geometry *is* its control points (a polyline's dense output is its
+/// vertices), so with `carry=both` the spline refers to them instead of repeating them. The
+/// positions are those of the Feature's `geometry` at the part's `path` (its `coordinates` for
+/// a LineString's own `spline`; `coordinates[i]` for `path` `[i]`, `coordinates[p][r]` for
+/// `[p, r]`), `[lon, lat]` of each, altitudes and times ignored; the geometry's type is the
+/// fit's (`LineString`, or `properties.fit.geometry` for parts). `knots` is then left out when
+/// they are the clamped uniform ones (`n + 2` knots `0, 0, 1/(n-1), ..., 1, 1`). The writer uses it
+/// only when those positions are exactly the control points it would have written, so reading
+/// either gives the same spline. A bare spline document has no geometry to refer to.
+pub const CONTROL_POINTS_OF_GEOMETRY: &str = "geometry";
+
+/// `[lon, lat]` of each position of a GeoJSON position array (altitudes and times ignored);
+/// `None` if it is not one.
+pub fn lonlat_of_positions(v: &Value) -> Option<Vec<[f64; 2]>> {
+    v.as_array()?
+        .iter()
+        .map(|p| {
+            let p = p.as_array()?;
+            Some([p.first()?.as_f64()?, p.get(1)?.as_f64()?])
+        })
+        .collect()
+}
+
+/// A spline document whose control points are [`CONTROL_POINTS_OF_GEOMETRY`] made whole: its
+/// control points are `geometry`'s positions at `path` (checked to be of type `kind`), and
+/// clamped uniform knots are filled in when it has none. Any other document is `None` (read
+/// as it is).
+///
+/// # Errors
+/// [`Problem::InvalidSpline`] at `pointer/control_points` when the geometry has no positions
+/// at `path` or is not of type `kind`.
+pub fn spline_of_geometry(
+    doc: &Value,
+    pointer: &str,
+    geometry: Option<&Value>,
+    kind: &str,
+    path: &[usize],
+) -> Result<Option<Value>, EarthError> {
+    let Some(map) = doc.as_object() else {
+        return Ok(None);
+    };
+    if map.get("control_points").and_then(Value::as_str) != Some(CONTROL_POINTS_OF_GEOMETRY) {
+        return Ok(None);
+    }
+    let fail = |why: String| {
+        EarthError::new(
+            format!("{pointer}/control_points"),
+            Problem::InvalidSpline(format!(
+                "\"{CONTROL_POINTS_OF_GEOMETRY}\" stands for the positions of the feature's geometry at path {path:?}: {why}"
+            )),
+        )
+    };
+    if map.get("degree").and_then(Value::as_u64) != Some(1) {
+        return Err(fail(
+            "only a degree-1 spline's control points are its geometry's positions".into(),
+        ));
+    }
+    let g = geometry
+        .filter(|g| !g.is_null())
+        .ok_or_else(|| fail("there is no geometry".into()))?;
+    let g_kind = g.get("type").and_then(Value::as_str).unwrap_or("");
+    if g_kind != kind {
+        return Err(fail(format!(
+            "the geometry is a {g_kind}, the fit's a {kind}"
+        )));
+    }
+    let mut at = &g["coordinates"];
+    for &i in path {
+        at = &at[i];
+    }
+    let ll = lonlat_of_positions(at)
+        .filter(|ll| !ll.is_empty())
+        .ok_or_else(|| fail("there is no position array there".into()))?;
+    let mut whole = map.clone();
+    if !whole.contains_key("knots") {
+        whole.insert(
+            "knots".into(),
+            json!(crate::sphere::curve::bspline::clamped_uniform_knots(
+                ll.len(),
+                1
+            )),
+        );
+    }
+    whole.insert("control_points".into(), json!(ll));
+    Ok(Some(Value::Object(whole)))
+}
+
 /// Reads a lon/lat curve document at `pointer`: a B-spline `{"degree", "knots",
 /// "control_points": [[lon, lat], ...]}`, the same as a compact curve (a base64 string,
 /// [`decode_compact`]), or a Beta-spline `{"type": "beta", "beta1", "beta2",
@@ -73,6 +163,12 @@ pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, Eart
                 "missing \"control_points\" ([[lon, lat], ...])".into(),
             )
         })?;
+        if cps.as_str() == Some(CONTROL_POINTS_OF_GEOMETRY) {
+            return Err(invalid(
+                format!("{pointer}/control_points"),
+                format!("\"{CONTROL_POINTS_OF_GEOMETRY}\" stands for the positions of a Feature's geometry: evaluate the Feature whose properties.fit holds this spline"),
+            ));
+        }
         unit.insert(
             "control_points".into(),
             convert(cps, &format!("{pointer}/control_points"))?,

@@ -178,6 +178,11 @@ pub(super) fn assemble(
         .filter(|c| c.report.fields.contains_key("small_ring"))
         .map(|c| c.pointer.clone())
         .collect();
+    if job.output.splines_refer_to_geometry {
+        for c in &mut outputs {
+            refer_to_geometry(&mut c.report, &geometry, kind);
+        }
+    }
     let mut info = properties_object(kind, outputs.into_iter().map(|c| c.report).collect(), job);
     if kind.ends_with("Polygon") {
         if let JsonOut::Object(m) = &mut info {
@@ -197,6 +202,64 @@ pub(super) fn assemble(
         extra.push((name, value));
     }
     Ok((geometry, info, stats, extra))
+}
+
+/// A degree-1 spline whose control points are exactly the positions written in `geometry` at
+/// its part's path is made to refer to them ([`CONTROL_POINTS_OF_GEOMETRY`]), without its knots
+/// when they are the clamped uniform ones: the curve is then written once. Any other spline
+/// (a compact curve, another degree, a line cut at ±180 whose positions moved) is kept.
+pub(super) fn refer_to_geometry(report: &mut CurveReport, geometry: &JsonOut, kind: &str) {
+    let Some(JsonOut::Object(spline)) = &mut report.spline else {
+        return;
+    };
+    if !matches!(spline.get("degree"), Some(JsonOut::Value(d)) if d.as_u64() == Some(1)) {
+        return;
+    }
+    let Some(JsonOut::Rows {
+        numbers: ctrl,
+        width: 2,
+    }) = spline.get("control_points")
+    else {
+        return;
+    };
+    let JsonOut::Object(g) = geometry else {
+        return;
+    };
+    if !matches!(g.get("type"), Some(JsonOut::Value(t)) if t.as_str() == Some(kind)) {
+        return;
+    }
+    let mut at = g.get("coordinates");
+    for &i in &report.path {
+        at = match at {
+            Some(JsonOut::Array(a)) => a.get(i),
+            _ => None,
+        };
+    }
+    let same = match at {
+        Some(JsonOut::Rows { numbers, width }) if *width >= 2 => {
+            numbers.len() / width == ctrl.len() / 2
+                && numbers
+                    .chunks(*width)
+                    .zip(ctrl.chunks(2))
+                    .all(|(p, c)| p[..2] == *c)
+        }
+        Some(JsonOut::Value(v)) => {
+            lonlat_of_positions(v).is_some_and(|ll| ll.iter().flatten().eq(ctrl.iter()))
+        }
+        _ => false,
+    };
+    if !same {
+        return;
+    }
+    let n = ctrl.len() / 2;
+    spline.insert(
+        "control_points".into(),
+        JsonOut::Value(json!(CONTROL_POINTS_OF_GEOMETRY)),
+    );
+    let uniform = crate::sphere::curve::bspline::clamped_uniform_knots(n, 1);
+    if matches!(spline.get("knots"), Some(JsonOut::Numbers(k)) if *k == uniform) {
+        spline.remove("knots");
+    }
 }
 
 /// `properties.fit` (or `interpolation`, `evaluation`): a LineString's fields directly; for

@@ -25,10 +25,13 @@ pub(super) fn curves_of_fit<'a>(
     let iptr = format!("{ptr}/properties/{key}");
     let known = |v: &Value| v.get("max_error_m").and_then(Value::as_f64);
     let time_of = |v: &'a Value, p: &str| v.get("time").map(|t| (t, format!("{p}/time")));
+    let geometry = feature.get("geometry");
     if let Some(doc) = info.get(doc_key) {
+        let pointer = format!("{iptr}/{doc_key}");
+        let whole = spline_of_geometry(doc, &pointer, geometry, "LineString", &[])?;
         let jobs = vec![CurveJob {
-            value: doc,
-            pointer: format!("{iptr}/{doc_key}"),
+            value: whole.as_ref().unwrap_or(doc),
+            pointer,
             path: vec![],
             closed: false,
             known_error_m: known(info),
@@ -62,7 +65,8 @@ pub(super) fn curves_of_fit<'a>(
         "LineString" => 0,
         _ => 1,
     };
-    let mut jobs = Vec::new();
+    // Each part's document, made whole when it refers to the geometry's positions.
+    let mut docs = Vec::new();
     for (i, part) in array_at(parts, &format!("{iptr}/parts"), "parts")?
         .iter()
         .enumerate()
@@ -84,14 +88,20 @@ pub(super) fn curves_of_fit<'a>(
         let doc = part
             .get(doc_key)
             .ok_or_else(|| invalid(&pptr, format!("a part needs \"{doc_key}\"")))?;
+        let pointer = format!("{pptr}/{doc_key}");
+        let whole = spline_of_geometry(doc, &pointer, geometry, kind, &path)?;
+        docs.push((part, pptr, pointer, path, doc, whole));
+    }
+    let mut jobs = Vec::with_capacity(docs.len());
+    for (part, pptr, pointer, path, doc, whole) in &docs {
         jobs.push(CurveJob {
-            value: doc,
-            pointer: format!("{pptr}/{doc_key}"),
-            path,
+            value: whole.as_ref().unwrap_or(doc),
+            pointer: pointer.clone(),
+            path: path.clone(),
             closed: kind.ends_with("Polygon"),
             known_error_m: known(part),
             times: None,
-            time_doc: time_of(part, &pptr),
+            time_doc: time_of(part, pptr),
         });
     }
     if jobs.is_empty() {

@@ -19,6 +19,7 @@ use super::curve::{
     json_kind, output_position, output_positions,
 };
 use super::curve::{curve_in_time, CurveOutput, CurveReport, LineRef, LineTimeInput, OutputSpec};
+use super::curve::{lonlat_of_positions, spline_of_geometry, CONTROL_POINTS_OF_GEOMETRY};
 use super::lonlat::lonlat_to_unit;
 use super::small_rings;
 use super::time::{motion, TimeOrigin, TIME_PROPERTIES};

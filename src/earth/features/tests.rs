@@ -90,3 +90,33 @@ fn bare_spline_documents_need_a_crs() {
     assert_eq!(coords.len(), 11);
     assert_eq!(coords[5], json!([5.0, 0.0]));
 }
+
+/// A degree-1 tolerance fit's spline refers to its geometry unless the job says it is read
+/// back without it (Python's `fit` column); either way its positions are the geometry's.
+#[test]
+fn a_degree_one_spline_refers_to_its_geometry_unless_told_not_to() {
+    let mut raw = crate::earth::RawOptions::default();
+    raw.set("tolerance_m", "1000").unwrap();
+    let job = crate::earth::into_job(
+        raw,
+        crate::earth::OperationKind::Fit,
+        &crate::earth::Limits::default(),
+    )
+    .unwrap();
+    let line = json!({"type": "Feature", "properties": {},
+        "geometry": {"type": "LineString", "coordinates": wave(40, 0.0)}});
+    let run = |job: &Job| {
+        let d = Document::parse(line.clone(), false).unwrap();
+        d.slots[0].process(job).unwrap().feature.into_value()
+    };
+    let referring = run(&job);
+    let spline = &referring["properties"]["fit"]["spline"];
+    assert_eq!(spline["degree"], 1, "{spline}");
+    assert_eq!(spline["control_points"], CONTROL_POINTS_OF_GEOMETRY);
+    assert!(spline.get("knots").is_none());
+    let whole = run(&job.clone().splines_referring_to_geometry(false));
+    let spline = &whole["properties"]["fit"]["spline"];
+    let rows: Vec<Value> = whole["geometry"]["coordinates"].as_array().unwrap().clone();
+    assert_eq!(spline["control_points"], Value::Array(rows));
+    assert_eq!(whole["geometry"], referring["geometry"]);
+}

@@ -155,6 +155,7 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
                 (None, _) => DEFAULT_PRECISION,
             },
             compact_splines: raw.carry == Some(Carry::Spline),
+            splines_refer_to_geometry: true,
         },
         limits: limits.clone(),
         cancel: Cancel::inherit(),

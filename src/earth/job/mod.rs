@@ -129,6 +129,11 @@ pub struct OutputOptions {
     /// Fits write their splines as compact curves (base64, [`crate::earth::curve::encode_compact`])
     /// instead of JSON documents: set by `carry=spline`.
     pub compact_splines: bool,
+    /// A degree-1 spline whose control points are exactly its geometry's positions refers to
+    /// them (`"control_points": "geometry"`, [`crate::earth::curve::CONTROL_POINTS_OF_GEOMETRY`])
+    /// instead of repeating them. True by default; false where a spline is read back without
+    /// its geometry (Python's `fit` column, which `evaluate` reads alone).
+    pub splines_refer_to_geometry: bool,
 }
 
 impl Default for OutputOptions {
@@ -137,6 +142,7 @@ impl Default for OutputOptions {
             sampling: Sampling::Auto,
             precision: DEFAULT_PRECISION,
             compact_splines: false,
+            splines_refer_to_geometry: true,
         }
     }
 }
@@ -268,6 +274,13 @@ impl Job {
     pub fn carrying(mut self, carry: Carry) -> Job {
         self.carry = carry;
         self.output.compact_splines = carry == Carry::Spline;
+        self
+    }
+
+    /// Whether degree-1 splines may refer to their geometry's positions
+    /// ([`OutputOptions::splines_refer_to_geometry`]).
+    pub fn splines_referring_to_geometry(mut self, refer: bool) -> Job {
+        self.output.splines_refer_to_geometry = refer;
         self
     }
 
