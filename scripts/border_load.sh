@@ -30,7 +30,7 @@ for round in $(seq "$ROUNDS"); do
       "http://127.0.0.1:$PORT/v1/fit$query")
     rps=$(echo "$out" | awk '/Requests\/sec/ {print $2}')
     p50=$(echo "$out" | awk '/ 50% in/ {print $3}')
-    codes=$(echo "$out" | awk '/\[[0-9]+\]/ {printf "%s%s ", $1, $2}')
+    codes=$(echo "$out" | awk '/^ *\[[0-9][0-9][0-9]\][ \t]+[0-9]+ responses/ {printf "%s %s ", $1, $2}')
     printf 'round %s %-18s %8.1f requests/s, p50 %s s, status %s\n' "$round" \
       "${query:-default}" "$rps" "$p50" "$codes"
   done
