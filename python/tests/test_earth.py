@@ -18,12 +18,31 @@ def same_geometry(a, b):
     return shapely.to_wkb(a, output_dimension=3) == shapely.to_wkb(b, output_dimension=3)
 
 
+def same_report(py, cli):
+    """The Python report equals the CLI's, except that where the CLI writes a degree-1 spline
+    once (``"control_points": "geometry"``, knots left out when uniform) Python's column keeps
+    them, since ``evaluate`` reads that column without the geometry (the geometry itself is
+    compared apart)."""
+    if isinstance(cli, dict) and cli.get("control_points") == "geometry":
+        return (
+            isinstance(py, dict)
+            and py.get("degree") == 1
+            and isinstance(py.get("control_points"), list)
+            and all(same_report(py.get(k), v) for k, v in cli.items() if k not in ("control_points", "knots"))
+        )
+    if isinstance(cli, dict):
+        return isinstance(py, dict) and py.keys() == cli.keys() and all(same_report(py[k], cli[k]) for k in cli)
+    if isinstance(cli, list):
+        return isinstance(py, list) and len(py) == len(cli) and all(same_report(a, b) for a, b in zip(py, cli))
+    return py == cli
+
+
 def assert_equals_cli(out, cli_features, key):
     assert len(out) == len(cli_features)
     for i, f in enumerate(cli_features):
         props = f["properties"] or {}
         if key in props:
-            assert json.loads(out[key].iloc[i]) == props[key], i
+            assert same_report(json.loads(out[key].iloc[i]), props[key]), i
             assert same_geometry(out.geometry.iloc[i], shape(f["geometry"])), i
             for col in spherefit.output_columns(key if key == "fit" else "interpolate"):
                 if col in props[key] and col != key:

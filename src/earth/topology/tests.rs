@@ -1,5 +1,6 @@
 use super::*;
-use crate::earth::lonlat::m_to_rad;
+use crate::earth::lonlat::{lonlat_to_unit, m_to_rad};
+use crate::sphere::geometry::arc::distance_to_arc;
 use crate::sphere::FitOptions;
 
 fn job(tolerance_m: f64) -> Job {
@@ -175,4 +176,48 @@ fn a_ring_that_bounds_no_area_is_kept() {
     .unwrap();
     let e = fit_coverage(doc, &job(10.0)).unwrap_err();
     assert_eq!(e.pointer, "/coordinates/0/2/1");
+}
+
+#[test]
+fn a_ring_kept_small_counts_in_its_features_bound() {
+    // An islet of the 10m countries (Croatia, ring 22) whose fitted outline bounds no area at
+    // 1 km: it is kept as a triangle of its own positions, 981 m from its farthest one. The
+    // feature's two-way distance (and max error) must cover that, not only its arcs'.
+    let ring = [
+        [14.614346143461432, 44.34090758282966],
+        [14.643146431464316, 44.32571038740073],
+        [14.661146611466108, 44.308824614701905],
+        [14.657546575465773, 44.30544746016213],
+        [14.639546395463952, 44.31220176924165],
+        [14.599945999460004, 44.339219005559784],
+        [14.59634596345964, 44.34766189190921],
+        [14.614346143461432, 44.34090758282966],
+    ];
+    let doc = Document::parse(json!({"type": "Polygon", "coordinates": [ring]}), false).unwrap();
+    let c = fit_coverage(doc, &job(1000.0)).unwrap();
+    assert_eq!(c.report["kept_rings"], json!(["/coordinates/0"]));
+    let fit = &c.features[0]["properties"]["fit"];
+    let written: Vec<[f64; 3]> = c.features[0]["geometry"]["coordinates"][0]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| lonlat_to_unit(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+        .collect();
+    // Every input position's distance to the written outline (vertex to great-circle edge).
+    let farthest_m = ring
+        .iter()
+        .map(|p| {
+            let q = lonlat_to_unit(p[0], p[1]);
+            written
+                .windows(2)
+                .map(|e| distance_to_arc(&q, &e[0], &e[1]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+        * crate::earth::lonlat::EARTH_RADIUS_M;
+    assert!(farthest_m > 900.0, "{farthest_m}");
+    let two_way = fit["two_way_distance_m"].as_f64().unwrap();
+    assert!(two_way >= farthest_m, "{two_way} m < {farthest_m} m");
+    assert!(fit["max_error_m"].as_f64().unwrap() >= farthest_m - 0.01);
+    assert_eq!(fit["tolerance_met"], json!(true));
 }
