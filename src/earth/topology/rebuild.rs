@@ -222,16 +222,34 @@ impl Rebuild<'_> {
                         ll_rings.push(ring);
                     }
                     None => {
+                        // On TopoJSON's grid a position moves by up to half a cell's
+                        // diagonal: the kept positions are chosen within the tolerance less
+                        // that.
+                        let topo = job.format == OutputFormat::TopoJson;
+                        let grid_rad = if topo {
+                            (0.5 * std::f64::consts::SQRT_2 * 10f64.powi(-(precision as i32)))
+                                .to_radians()
+                        } else {
+                            0.0
+                        };
                         let (ring, how) =
                             // At the default precision at least: a kept ring can be smaller
                             // than the grid a tolerance chose.
                             small_rings::kept_lonlat(
                                 &rings[*ri].points,
-                                Some(tol_rad),
+                                Some((tol_rad - grid_rad).max(0.5 * tol_rad)),
                                 precision.max(crate::earth::DEFAULT_PRECISION),
                             );
+                        // TopoJSON writes it on its grid (10^-precision), GeoJSON as kept.
+                        let written: Vec<[f64; 2]> = if topo {
+                            ring.iter()
+                                .map(|p| [round_to(p[0], precision), round_to(p[1], precision)])
+                                .collect()
+                        } else {
+                            ring.clone()
+                        };
                         kept_two_way_rad = kept_two_way_rad
-                            .max(small_rings::kept_two_way_rad(&rings[*ri].points, &ring));
+                            .max(small_rings::kept_two_way_rad(&rings[*ri].points, &written));
                         parts.push(json!({"path": path, "arcs": [], "small_ring": how.name()}));
                         kept.push(sources[*ri].pointer.clone());
                         ll_rings.push(ring);
