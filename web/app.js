@@ -186,8 +186,12 @@ function resultFeatures(json) {
     const fit = f && f.properties && (f.properties.fit || f.properties.interpolation);
     if (!fit) return { index: i, fit: null };
     const lines = linesToVecs(geometryLines(f.geometry, '').map((l) => l.coords));
-    // Compact curves are text: only JSON splines have control points to draw.
-    const splines = (Array.isArray(fit.parts) ? fit.parts.map((p) => p.spline) : [fit.spline]).filter((s) => s && typeof s === 'object');
+    // Compact curves are text: only JSON splines have control points to draw. A degree-1
+    // spline written once ("control_points": "geometry") has its line's positions.
+    const coords = geometryLines(f.geometry, '').map((l) => l.coords);
+    const splines = (Array.isArray(fit.parts) ? fit.parts.map((p) => p.spline) : [fit.spline])
+      .map((s, k) => (s && typeof s === 'object' && s.control_points === 'geometry' ? { ...s, control_points: coords[k] || [] } : s))
+      .filter((s) => s && typeof s === 'object');
     const controls = linesToVecs(splines.map((s) => s.control_points || []));
     return { index: i, fit, feature: f, lines, controls, splines, distances: null };
   });
