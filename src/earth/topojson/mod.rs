@@ -24,6 +24,9 @@
 //! clamped uniform ones). A degree-1 arc's spline is the great-circle polyline through its
 //! positions, which is what a TopoJSON reader draws.
 
+mod rings;
+
+use self::rings::{ArcIndex, Cell, Piece};
 use super::job::Carry;
 use super::topology::Coverage;
 use serde_json::{json, Map, Value};
@@ -53,7 +56,7 @@ impl Quantisation {
     }
 
     /// The grid index of a longitude and of a latitude.
-    fn index(&self, lon: f64, lat: f64) -> [i64; 2] {
+    fn index(&self, lon: f64, lat: f64) -> Cell {
         [
             ((lon + 180.0) * self.steps_per_degree).round() as i64,
             ((lat + 90.0) * self.steps_per_degree).round() as i64,
@@ -82,18 +85,21 @@ impl Quantisation {
 
     /// A GeoJSON position array (`[[lon, lat, ...], ...]`) as a quantised arc.
     fn arc_of_json(&self, line: &Value) -> Value {
-        let positions: Vec<Vec<f64>> = line
-            .as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|p| {
-                        let v: Vec<f64> = p.as_array()?.iter().filter_map(Value::as_f64).collect();
-                        (v.len() >= 2).then_some(v)
-                    })
-                    .collect()
+        self.arc(&positions(line))
+    }
+
+    /// Grid positions as a delta-encoded TopoJSON arc.
+    fn arc_of_cells(&self, cells: &[Cell]) -> Value {
+        let mut prev: Option<Cell> = None;
+        let out: Vec<Value> = cells
+            .iter()
+            .map(|k| {
+                let d = prev.map_or(*k, |p| [k[0] - p[0], k[1] - p[1]]);
+                prev = Some(*k);
+                json!(d)
             })
-            .unwrap_or_default();
-        self.arc(&positions)
+            .collect();
+        Value::Array(out)
     }
 }
 
@@ -118,14 +124,15 @@ fn compact_spline(a: &super::topology::FittedArc, q: &Quantisation) -> Option<Va
 /// compact splines unless `carry` is [`Carry::Geometry`].
 pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
     let q = Quantisation::new(precision);
-    let mut arcs: Vec<Value> = c
+    let cells: Vec<Vec<Cell>> = c
         .arcs
         .iter()
-        .map(|a| {
-            let ps: Vec<Vec<f64>> = a.dense_ll.iter().map(|p| p.to_vec()).collect();
-            q.arc(&ps)
-        })
+        .map(|a| a.dense_ll.iter().map(|p| q.index(p[0], p[1])).collect())
         .collect();
+    let index = ArcIndex::new(&cells);
+    // Arcs of their own, after the coverage's (index `coverage + i`).
+    let coverage = c.arcs.len();
+    let mut own: Vec<Value> = Vec::new();
     let mut geometries = Vec::with_capacity(c.features.len());
     for (f, rings) in c.features.iter().zip(&c.feature_rings) {
         let geometry = &f["geometry"];
@@ -145,10 +152,15 @@ pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
                     json!({"type": "MultiPolygon", "arcs": refs})
                 }
             }
-            None => convert(geometry, &mut |line| {
-                arcs.push(q.arc_of_json(line));
-                (arcs.len() - 1) as i64
-            }),
+            None => {
+                let mut writer = ArcWriter {
+                    q: &q,
+                    index: &index,
+                    first: coverage,
+                    own: &mut own,
+                };
+                convert(geometry, &mut writer)
+            }
         };
         if let Some(obj) = g.as_object_mut() {
             if let Some(id) = f.get("id") {
@@ -160,12 +172,43 @@ pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
         }
         geometries.push(g);
     }
+    // Coverage arcs no geometry uses (their rings were written with pieces of their own) are
+    // left out, and the indices renumbered.
+    let mut used = vec![false; coverage];
+    for g in &geometries {
+        visit_indices(g, &mut |k| {
+            let k = if k < 0 { !k } else { k } as usize;
+            if k < coverage {
+                used[k] = true;
+            }
+        });
+    }
+    let mut renumber: Vec<i64> = Vec::with_capacity(coverage + own.len());
+    let mut next = 0i64;
+    for &u in &used {
+        renumber.push(next);
+        next += i64::from(u);
+    }
+    renumber.extend((0..own.len() as i64).map(|i| next + i));
+    let mut geometries = geometries;
+    for g in &mut geometries {
+        remap_indices(g, &renumber);
+    }
+    let mut arcs: Vec<Value> = cells
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(a, _)| q.arc_of_cells(a))
+        .collect();
+    arcs.extend(own);
     let mut report = c.report;
     if carry != Carry::Geometry {
         report["splines"] = Value::Array(
             c.arcs
                 .iter()
-                .map(|a| compact_spline(a, &q).unwrap_or(Value::Null))
+                .zip(&used)
+                .filter(|(_, &u)| u)
+                .map(|(a, _)| compact_spline(a, &q).unwrap_or(Value::Null))
                 .collect(),
         );
     }
@@ -181,33 +224,141 @@ pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
     Value::Object(out)
 }
 
-/// A GeoJSON geometry as a TopoJSON one, each of its lines and rings made an arc by `new_arc`
-/// (which returns the arc's index).
-fn convert(g: &Value, new_arc: &mut dyn FnMut(&Value) -> i64) -> Value {
+/// How [`convert`] makes arcs: a line is an arc of its own; a ring runs along the
+/// coverage's arcs where it can ([`ArcIndex::pieces`]), with arcs of its own between.
+struct ArcWriter<'a> {
+    q: &'a Quantisation,
+    index: &'a ArcIndex<'a>,
+    /// The index of the first arc of their own (after the coverage's).
+    first: usize,
+    own: &'a mut Vec<Value>,
+}
+
+impl ArcWriter<'_> {
+    fn push(&mut self, arc: Value) -> i64 {
+        self.own.push(arc);
+        (self.first + self.own.len() - 1) as i64
+    }
+
+    /// A line's one arc.
+    fn line(&mut self, line: &Value) -> i64 {
+        let arc = self.q.arc_of_json(line);
+        self.push(arc)
+    }
+
+    /// A ring's arc indices.
+    fn ring(&mut self, ring: &Value) -> Vec<i64> {
+        let cells: Vec<Cell> = positions(ring)
+            .iter()
+            .map(|p| self.q.index(p[0], p[1]))
+            .collect();
+        self.index
+            .pieces(&cells)
+            .into_iter()
+            .map(|piece| match piece {
+                Piece::Arc(k) => k,
+                Piece::Own(ps) => {
+                    let arc = self.q.arc_of_cells(&ps);
+                    self.push(arc)
+                }
+            })
+            .collect()
+    }
+}
+
+/// The `[lon, lat, ...]` positions of a GeoJSON position array (others skipped).
+fn positions(line: &Value) -> Vec<Vec<f64>> {
+    line.as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|p| {
+                    let v: Vec<f64> = p.as_array()?.iter().filter_map(Value::as_f64).collect();
+                    (v.len() >= 2).then_some(v)
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Calls `f` on every arc index of a TopoJSON geometry (its `arcs`, and those of a
+/// collection's geometries).
+fn visit_indices(g: &Value, f: &mut dyn FnMut(i64)) {
+    fn walk(v: &Value, f: &mut dyn FnMut(i64)) {
+        match v {
+            Value::Array(a) => a.iter().for_each(|x| walk(x, f)),
+            Value::Number(n) => {
+                if let Some(k) = n.as_i64() {
+                    f(k);
+                }
+            }
+            _ => {}
+        }
+    }
+    if let Some(arcs) = g.get("arcs") {
+        walk(arcs, f);
+    }
+    if let Some(Value::Array(gs)) = g.get("geometries") {
+        gs.iter().for_each(|x| visit_indices(x, f));
+    }
+}
+
+/// Renumbers the arc indices of a TopoJSON geometry: arc `k` becomes `renumber[k]` (`~k`,
+/// an arc used backwards, `~renumber[k]`).
+fn remap_indices(g: &mut Value, renumber: &[i64]) {
+    fn walk(v: &mut Value, renumber: &[i64]) {
+        match v {
+            Value::Array(a) => a.iter_mut().for_each(|x| walk(x, renumber)),
+            Value::Number(n) => {
+                if let Some(k) = n.as_i64() {
+                    let m = if k < 0 {
+                        !renumber[!k as usize]
+                    } else {
+                        renumber[k as usize]
+                    };
+                    *v = json!(m);
+                }
+            }
+            _ => {}
+        }
+    }
+    if let Some(arcs) = g.get_mut("arcs") {
+        walk(arcs, renumber);
+    }
+    if let Some(Value::Array(gs)) = g.get_mut("geometries") {
+        gs.iter_mut().for_each(|x| remap_indices(x, renumber));
+    }
+}
+
+/// A GeoJSON geometry as a TopoJSON one: each line an arc of its own, each ring the arcs
+/// `writer` finds for it.
+fn convert(g: &Value, writer: &mut ArcWriter<'_>) -> Value {
     let kind = g.get("type").and_then(Value::as_str).unwrap_or("");
     let c = &g["coordinates"];
     let list = |v: &Value| v.as_array().cloned().unwrap_or_default();
     match kind {
         "Point" | "MultiPoint" => json!({"type": kind, "coordinates": c}),
         // A LineString's `arcs` is one list of arc indices; a MultiLineString's and a Polygon's
-        // one such list per line or ring; a MultiPolygon's one per ring of each polygon. Every
-        // line and ring here is one arc of its own, so each list holds one index.
-        "LineString" => json!({"type": kind, "arcs": [new_arc(c)]}),
-        "MultiLineString" | "Polygon" => {
-            let refs: Vec<[i64; 1]> = list(c).iter().map(|r| [new_arc(r)]).collect();
+        // one such list per line or ring; a MultiPolygon's one per ring of each polygon.
+        "LineString" => json!({"type": kind, "arcs": [writer.line(c)]}),
+        "MultiLineString" => {
+            let refs: Vec<[i64; 1]> = list(c).iter().map(|r| [writer.line(r)]).collect();
+            json!({"type": kind, "arcs": refs})
+        }
+        "Polygon" => {
+            let refs: Vec<Vec<i64>> = list(c).iter().map(|r| writer.ring(r)).collect();
             json!({"type": kind, "arcs": refs})
         }
         "MultiPolygon" => {
-            let refs: Vec<Vec<[i64; 1]>> = list(c)
+            let refs: Vec<Vec<Vec<i64>>> = list(c)
                 .iter()
-                .map(|p| list(p).iter().map(|r| [new_arc(r)]).collect())
+                .map(|p| list(p).iter().map(|r| writer.ring(r)).collect())
                 .collect();
             json!({"type": kind, "arcs": refs})
         }
         "GeometryCollection" => {
             let gs: Vec<Value> = list(&g["geometries"])
                 .iter()
-                .map(|x| convert(x, new_arc))
+                .map(|x| convert(x, writer))
                 .collect();
             json!({"type": kind, "geometries": gs})
         }
@@ -257,10 +408,16 @@ mod tests {
     fn geometries_with_arcs_of_their_own_nest_their_indices_as_topojson_says() {
         let line = json!([[0, 0], [1, 1]]);
         let ring = json!([[0, 0], [1, 0], [1, 1], [0, 0]]);
-        let mut arcs: Vec<Value> = Vec::new();
-        let mut new_arc = |line: &Value| {
-            arcs.push(line.clone());
-            (arcs.len() - 1) as i64
+        // No coverage arcs: every line and ring is an arc of its own.
+        let q = Quantisation::new(0);
+        let none: Vec<Vec<Cell>> = Vec::new();
+        let index = ArcIndex::new(&none);
+        let mut arcs = Vec::new();
+        let mut writer = ArcWriter {
+            q: &q,
+            index: &index,
+            first: 0,
+            own: &mut arcs,
         };
         for (g, levels) in [
             (json!({"type": "LineString", "coordinates": line}), 1),
@@ -274,12 +431,12 @@ mod tests {
                 3,
             ),
         ] {
-            let t = convert(&g, &mut new_arc);
+            let t = convert(&g, &mut writer);
             assert_eq!(depth(&t["arcs"]), levels, "{g} -> {t}");
         }
         let t = convert(
             &json!({"type": "MultiPolygon", "coordinates": [[ring], [ring, ring]]}),
-            &mut new_arc,
+            &mut writer,
         );
         // 7 arcs before: 1 + 2 (lines) + 1 + 3 (rings).
         assert_eq!(t["arcs"], json!([[[7]], [[8], [9]]]));
