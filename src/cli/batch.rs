@@ -15,8 +15,9 @@
 //! * [`summary`], [`progress`]: what the run reports on stderr.
 //!
 //! Exit status: 0 when every record succeeded, 1 when some failed (each is reported on stderr
-//! with its record number and the reason, and the others are written), 2 for usage errors and
-//! inputs or outputs that cannot be read or written at all.
+//! with its record number and the reason, and the others are written), 2 for usage errors,
+//! inputs or outputs that cannot be read or written at all, and compact curves that do not
+//! decode (corrupt input; the other records are still written).
 
 mod input;
 mod pipeline;
@@ -253,6 +254,18 @@ fn run(command: &'static str, job: Job, batch: BatchArgs) -> Result<(), Failure>
             return Err(Failure::input(format!("{name}: cannot write: {e}")));
         }
         None => {}
+    }
+    if totals.corrupt > 0 {
+        // Corrupt input (a compact curve that does not decode) is not a fit that failed.
+        return Err(Failure {
+            status: 2,
+            message: format!(
+                "{} of {} features failed (reported above), {} of them with a compact curve that does not decode (corrupt input); the others were written",
+                totals.failed,
+                totals.failed + totals.features,
+                totals.corrupt
+            ),
+        });
     }
     if totals.failed > 0 {
         return Err(Failure {

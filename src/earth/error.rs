@@ -62,6 +62,12 @@ pub enum Problem {
     /// A Polygon ring whose last position differs from its first, or with under 4 positions.
     #[error("{0}")]
     InvalidRing(String),
+    /// A compact curve (`carry=spline`) that does not decode: a wrong version, a count larger
+    /// than its bytes, a varint that overflows, knots that decrease. Its own variant because
+    /// such input is corrupt rather than merely unfit: the command line ends with exit status
+    /// 2 for it (after writing every other feature).
+    #[error("{0}")]
+    CorruptCompactCurve(String),
     /// Fewer distinct positions than a curve needs.
     #[error(
         "{distinct} distinct position(s) after dropping repeats: a curve needs at least {need}"
@@ -257,7 +263,9 @@ impl Problem {
             | Problem::CountOutOfRange { .. }
             | Problem::RequiresOption { .. } => "invalid-option",
             Problem::ConflictingOptions { .. } => "conflicting-options",
-            Problem::InvalidSpline(_) | Problem::RoundedCurve(_) => "invalid-spline",
+            Problem::InvalidSpline(_)
+            | Problem::RoundedCurve(_)
+            | Problem::CorruptCompactCurve(_) => "invalid-spline",
             Problem::InvalidTime(_) => "invalid-time",
             Problem::Fit(SphereError::Cancelled) => "cancelled",
             Problem::Fit(SphereError::NonFinite { .. }) => "non-finite",

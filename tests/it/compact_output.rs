@@ -121,8 +121,8 @@ fn carry_writes_geometry_spline_or_both_and_evaluate_draws_the_spline() {
     assert_eq!(out.status.code(), Some(2));
 }
 
-/// A corrupt compact curve is a clear error with where: a failed record (exit 1) with the
-/// message and the pointer from the CLI.
+/// A corrupt compact curve is a clear error with where: a failed record with the message and
+/// the pointer from the CLI, and exit status 2 (corrupt input, not a fit that failed).
 #[test]
 fn a_hostile_compact_curve_is_an_error_with_where() {
     let spline = fit(&["--tolerance-m", "100", "--carry", "spline"]);
@@ -135,16 +135,18 @@ fn a_hostile_compact_curve_is_an_error_with_where() {
     bad["properties"]["fit"]["spline"] = Value::String(format!("Ag{}", &text[2..]));
     let out = run_spherefit(&["evaluate", "-"], Some(&serde_json::to_vec(&bad).unwrap()));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("version 2") && err.contains("/properties/fit/spline"),
+        err.contains("version 2")
+            && err.contains("/properties/fit/spline")
+            && err.contains("does not decode"),
         "{err}"
     );
     // Truncated: the header promises more than the bytes hold.
     bad["properties"]["fit"]["spline"] = Value::String(text[..12].to_string());
     let out = run_spherefit(&["evaluate", "-"], Some(&serde_json::to_vec(&bad).unwrap()));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("byte"), "{err}");
 }
 
@@ -318,10 +320,17 @@ async fn every_kind_of_hostile_compact_curve_is_a_422_and_a_failed_record_naming
         assert!(detail.contains(message), "{what}: {detail}");
         let out = run_spherefit(&["evaluate", "-q", "-"], Some(&body));
         let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{what}: {err}");
+        assert_eq!(out.status.code(), Some(2), "{what}: {err}");
         assert!(
             err.contains("record 2: /features/1/properties/fit/spline"),
             "{what}: {err}"
+        );
+        // The other feature is still written.
+        let written: Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(
+            written["features"].as_array().map(Vec::len),
+            Some(1),
+            "{what}"
         );
         assert!(err.contains(message), "{what}: {err}");
         let written: Value = serde_json::from_slice(&out.stdout).unwrap();

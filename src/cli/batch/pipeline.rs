@@ -18,7 +18,9 @@
 //!   work.
 
 use super::input::{Body, Format, Input, Opened, Position, ReadError, Unit, RS};
-use crate::earth::{process_feature, Document, EarthError, FeatureStats, Job, ProcessedFeature};
+use crate::earth::{
+    process_feature, Document, EarthError, FeatureStats, Job, Problem, ProcessedFeature,
+};
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
 use std::io::{self, Write};
@@ -113,6 +115,8 @@ pub struct Processed {
     pub with_curves: usize,
     /// Messages for the features that failed (one each), with the record's position.
     pub errors: Vec<String>,
+    /// Of those, the features whose compact curve did not decode (corrupt input).
+    pub corrupt: usize,
     /// Largest max error of a feature and its label.
     pub worst: Option<(f64, String)>,
     /// The fit warnings of the record's features (`properties.fit.warnings`, and those of its
@@ -133,17 +137,23 @@ pub fn label(names: &[String], at: &Position) -> String {
 /// the records after it down: a panic is reported as that feature's error.
 fn guarded(
     f: impl FnOnce() -> Result<ProcessedFeature, EarthError>,
-) -> Result<ProcessedFeature, String> {
+) -> Result<ProcessedFeature, (String, bool)> {
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
-        Ok(r) => r.map_err(|e| e.to_string()),
+        Ok(r) => r.map_err(|e| {
+            let corrupt = matches!(e.problem, Problem::CorruptCompactCurve(_));
+            (e.to_string(), corrupt)
+        }),
         Err(panic) => {
             let what = panic
                 .downcast_ref::<&str>()
                 .map(|s| s.to_string())
                 .or_else(|| panic.downcast_ref::<String>().cloned())
                 .unwrap_or_default();
-            Err(format!(
-                "internal error while processing this feature (a bug, please report it): {what}"
+            Err((
+                format!(
+                    "internal error while processing this feature (a bug, please report it): {what}"
+                ),
+                false,
             ))
         }
     }
@@ -207,10 +217,13 @@ impl Processed {
     }
 
     /// Adds the result of one feature.
-    fn add(&mut self, r: Result<ProcessedFeature, String>, label: &str) {
+    fn add(&mut self, r: Result<ProcessedFeature, (String, bool)>, label: &str) {
         let p = match r {
             Ok(p) => p,
-            Err(e) => return self.errors.push(format!("{label}: {e}")),
+            Err((e, corrupt)) => {
+                self.corrupt += usize::from(corrupt);
+                return self.errors.push(format!("{label}: {e}"));
+            }
         };
         match serde_json::to_vec(&p.feature) {
             Ok(bytes) => {
@@ -352,6 +365,8 @@ pub struct Totals {
     pub with_curves: usize,
     /// Features (or records) that failed.
     pub failed: usize,
+    /// Of those, the features whose compact curve did not decode.
+    pub corrupt: usize,
     pub stats: FeatureStats,
     /// Largest max error and where.
     pub worst: Option<(f64, String)>,
@@ -480,6 +495,7 @@ pub fn run<W: Write>(
                         }
                     }
                     totals.failed += processed.errors.len();
+                    totals.corrupt += processed.corrupt;
                     totals.with_curves += processed.with_curves;
                     totals.stats.merge(&processed.stats);
                     if let Some((e, at)) = processed.worst {

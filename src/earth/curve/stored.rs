@@ -109,7 +109,7 @@ pub fn curve_from_lonlat_json(v: &Value, pointer: &str) -> Result<AnyCurve, Eart
     // A compact curve (`carry=spline`): the document it stands for, checked as any other.
     if let Value::String(text) = v {
         let doc = decode_compact(text, MAX_COMPACT_CONTROL_POINTS)
-            .map_err(|m| invalid(pointer.to_string(), m))?;
+            .map_err(|m| EarthError::new(pointer, Problem::CorruptCompactCurve(m)))?;
         return curve_from_lonlat_json(&doc, pointer);
     }
     let map = v.as_object().ok_or_else(|| {
