@@ -702,6 +702,9 @@ pub(super) fn fit_closed(
 /// the rounding of the control points to `precision` decimals (when that leaves room), and by
 /// the deviation the dense output adds to the curve's distance from the line (when at least
 /// half the tolerance is left).
+///
+/// That target serves every degree. A polyline written as it is needs less
+/// ([`polyline_target_rad`]).
 pub(crate) fn tolerance_target_rad(tol_rad: f64, precision: u32) -> f64 {
     let bound = rounding_bound_rad(precision);
     let mut target = if tol_rad > 3.0 * bound {
@@ -714,6 +717,22 @@ pub(crate) fn tolerance_target_rad(tol_rad: f64, precision: u32) -> f64 {
         target -= dense_margin;
     }
     target
+}
+
+/// What a polyline (a degree-1 curve, written as its vertices) aims at so that it meets
+/// `tol_rad` once rounded: below it by the rounding of its vertices alone. Rounding moves each
+/// vertex by at most [`rounding_bound_rad`] and a great-circle step by no more than its ends,
+/// and its dense output is its vertices (no sampling margin). What the bound misses (the
+/// sphere's curvature over a step) is caught by measuring the rounded curve and retried
+/// ([`ToleranceRule::retry_target_rad`]).
+pub(crate) fn polyline_target_rad(tol_rad: f64, precision: u32) -> f64 {
+    let bound = rounding_bound_rad(precision);
+    if tol_rad > 3.0 * bound {
+        tol_rad - bound
+    } else {
+        tol_rad
+    }
+    .max(tolerance_target_rad(tol_rad, precision))
 }
 
 #[cfg(test)]

@@ -34,6 +34,13 @@ impl ToleranceRule {
         tolerance_target_rad(self.tol_rad, self.precision)
     }
 
+    /// What a polyline may aim at instead ([`polyline_target_rad`]); curves of degree >= 2
+    /// then keep the difference ([`crate::sphere::ToleranceOptions::smooth_margin_rad`]) and
+    /// aim at [`Self::first_target_rad`] as before.
+    pub fn polyline_target_rad(&self) -> f64 {
+        polyline_target_rad(self.tol_rad, self.precision)
+    }
+
     /// Whether a curve as returned meets the tolerance: `worst_rad` is the larger of its max
     /// error at the positions and its two-way distance from the line, `curve_length_rad` and
     /// `line_length_rad` the lengths of the curve and of the line.

@@ -2,6 +2,7 @@
 //! measured as returned.
 
 use super::*;
+use crate::sphere::compress::tolerance::POLYLINE_FIRST_SHARE;
 
 /// Fits one arc to the tolerance with pinned ends (see the module docs), rounds it, samples it
 /// and measures the curve as returned.
@@ -39,12 +40,18 @@ pub(super) fn fit_arc(
     let tol_rad = tolerance.tol_rad;
     let line_length = polyline_length(&points);
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
-    let mut target = tolerance.first_target_rad();
+    // Most arcs' best curve is a polyline, written as it is: it may aim at the tolerance less
+    // its vertices' rounding, and fit its vertices to all of that first; smooth curves keep
+    // the rest of the margin (world-atlas 50m countries at 1 km: 112,174 -> 97,716 stored
+    // numbers, the TopoJSON 611 -> 541 KB).
+    let mut target = tolerance.polyline_target_rad();
     let mut topts = ToleranceOptions {
         parameterization,
         max_control_points: Some(points.len()),
         pin_ends: true,
         measure_result: false,
+        smooth_margin_rad: tolerance.polyline_target_rad() - tolerance.first_target_rad(),
+        polyline_first_share: POLYLINE_FIRST_SHARE,
         ..ToleranceOptions::default()
     };
     topts.degrees.retain(|&p| p <= degree_cap);

@@ -74,9 +74,10 @@ fn neighbours_share_identical_coordinates_and_arcs_are_stored_once() {
 #[test]
 fn arcs_that_cross_their_neighbours_are_refitted_tighter() {
     // A corridor 445 to 890 m wide between two features, its borders wiggling by 5 km
-    // together and sampled differently: at 2 km each border's fit may wander 2 km, so the
-    // two cross; at an eighth of that (3 halvings) they cannot. (At 1.5 km they no longer
-    // cross since polyline removals keep their corners on the line.)
+    // together and sampled differently: at 1.5 km each border's fit may wander 1.5 km, so the
+    // two cross; at an eighth of that (3 halvings) they cannot. (Which tolerances make them
+    // cross depends on the fitter: at 2 km they did until polylines were fitted to their
+    // whole target first, at 1.5 km they did not before that.)
     let wave = |n: usize, offset_deg: f64, extra: f64| -> Vec<[f64; 2]> {
         (0..=n)
             .map(|i| {
@@ -105,7 +106,7 @@ fn arcs_that_cross_their_neighbours_are_refitted_tighter() {
         {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [corridor]}},
         {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [b]}}
     ]});
-    let c = fit_coverage(Document::parse(doc, false).unwrap(), &job(2000.0)).unwrap();
+    let c = fit_coverage(Document::parse(doc, false).unwrap(), &job(1500.0)).unwrap();
     assert!(
         c.report["tightened_arcs"].as_u64().unwrap() >= 1,
         "{}",
@@ -116,7 +117,7 @@ fn arcs_that_cross_their_neighbours_are_refitted_tighter() {
     let tightened: Vec<&FittedArc> = c
         .arcs
         .iter()
-        .filter(|a| a.tolerance_rad < m_to_rad(2000.0))
+        .filter(|a| a.tolerance_rad < m_to_rad(1500.0))
         .collect();
     assert!(tightened
         .iter()

@@ -12,7 +12,7 @@ use crate::sphere::SphereError;
 /// Every degree's curves at one vertex target (see the module docs), with honest errors.
 pub(super) fn search(
     line: Line,
-    target: f64,
+    target_of: &dyn Fn(usize) -> f64,
     cap: usize,
     options: &ToleranceOptions,
     degrees: &[usize],
@@ -23,6 +23,7 @@ pub(super) fn search(
     let mut closest: Option<(Curve, ErrorMetrics)> = None;
     for &p in degrees {
         options.cancel.check()?;
+        let target = target_of(p);
         if p >= 2 && free && options.degree_probe {
             // The probe reads the smallest degree-1 curve that met the target, if any.
             let polyline = found
@@ -46,7 +47,6 @@ pub(super) fn search(
         // uniform-knot search does not look at them either.
         let budget = found
             .iter()
-            .filter(|(_, m)| m.max_error_rad <= target)
             .map(|(c, _)| stored_numbers(&c.spline, c.rule))
             .chain((yardstick < usize::MAX).then_some(yardstick))
             .min();

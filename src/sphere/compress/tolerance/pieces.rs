@@ -120,13 +120,7 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
         // A junction is the last vertex of one piece and the first of the next.
         let from = usize::from(k > 0);
         coords.extend_from_slice(&ctrl.as_flat()[from * dim..]);
-        let scale = (m - 1) as f64 / (total - 1) as f64;
-        let base = offset as f64 / (total - 1) as f64;
-        params.extend(
-            c.params[from..]
-                .iter()
-                .map(|&t| (base + t * scale).min(1.0)),
-        );
+        append_piece_parameters(&mut params, &c.params[from..], offset, m, total);
         offset += m - 1;
         max = max.max(*e);
     }
@@ -142,4 +136,42 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
         },
         met,
     ))
+}
+
+/// Appends a piece's local parameters `local` (of its `m` vertices, `offset` segments of the
+/// whole's `total` vertices before it) mapped onto the whole line's uniform knots, kept
+/// non-decreasing across the junction: `base + 1 · scale` of one piece can round an ulp
+/// above the next piece's `base` (0.1 + 0.2 > 0.3; a land ring at 1 km came back refused,
+/// "parameter 6123 is smaller than parameter 6122").
+fn append_piece_parameters(
+    params: &mut Vec<f64>,
+    local: &[f64],
+    offset: usize,
+    m: usize,
+    total: usize,
+) {
+    let scale = (m - 1) as f64 / (total - 1) as f64;
+    let base = offset as f64 / (total - 1) as f64;
+    for &t in local {
+        let prev = params.last().copied().unwrap_or(0.0);
+        params.push((base + t * scale).min(1.0).max(prev));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn joined_parameters_never_decrease_at_a_junction() {
+        // Pieces of 1, 2 and 2 segments (6 vertices): the second ends at
+        // 1/5 + 1 · 2/5 = 0.6000000000000001 > 0.6, where the third begins (its first point
+        // after the junction has its foot point on the junction, t = 0).
+        let mut params = vec![0.0];
+        append_piece_parameters(&mut params, &[1.0], 0, 2, 6);
+        append_piece_parameters(&mut params, &[0.5, 1.0], 1, 3, 6);
+        append_piece_parameters(&mut params, &[0.0, 0.5, 1.0], 3, 3, 6);
+        assert!(params.windows(2).all(|w| w[0] <= w[1]), "{params:?}");
+        assert_eq!(*params.last().unwrap(), 1.0);
+    }
 }
