@@ -133,7 +133,12 @@ pub fn fit_line(
                 break;
             }
             let n_now = r.spline.control_points().len();
-            let errors = pointwise_errors(&r.spline, &fit_points, &r.parameters);
+            // The solver's last pass measured this curve at these parameters already.
+            let errors = if r.point_errors_rad.len() == fit_points.len() {
+                std::mem::take(&mut r.point_errors_rad)
+            } else {
+                pointwise_errors(&r.spline, &fit_points, &r.parameters)
+            };
             let Some(knots) = refine(
                 r.spline.knots(),
                 r.spline.degree(),
