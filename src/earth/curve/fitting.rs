@@ -119,21 +119,43 @@ pub fn fit_line(
         run_opts(&opts)
     };
     let run = |n_ctrl: usize| run_with(n_ctrl, options.solver);
-    let mut r = run(control_points).map_err(fit_err)?;
+    let refining = options.control_points.is_none() && options.knots == KnotPlacement::Adaptive;
+    // Open lines refined with the accelerated solver: every round but the one kept is fitted
+    // with a single update, which already lands at the fixed point to about 1e-9 (the second
+    // update of a full fit only confirms it); the round kept is then resumed. Closed lines
+    // are closed after each fit, so they keep full fits.
+    let quick = refining && !closed && options.solver == crate::sphere::Solver::GlsPiaAccelerated;
+    let mut r = if quick {
+        let mut opts = options
+            .clone()
+            .with_degree(degree)
+            .with_control_points(control_points);
+        opts.iterations = opts.iterations.min(1);
+        run_opts(&opts)
+    } else {
+        run(control_points)
+    }
+    .map_err(fit_err)?;
     let count_cap = m.min(cap);
-    if options.control_points.is_none() && options.knots == KnotPlacement::Adaptive {
+    let mut r_quick = quick;
+    if refining {
         // The count from the data: knots are added where the curve misses the line (any
         // position of the densified line farther than a share of the median step), a knot
         // in the middle of each such span, for a few rounds.
         let threshold =
             (REFINE_STEP_SHARE * median_step_rad(&distinct)).min(m_to_rad(REFINE_MAX_M));
         let turns = turning_angles(&fit_points);
-        for _ in 0..REFINE_ROUNDS {
+        for round in 0..REFINE_ROUNDS {
             if options.cancel.is_cancelled() {
                 break;
             }
             let n_now = r.spline.control_points().len();
-            let errors = pointwise_errors(&r.spline, &fit_points, &r.parameters);
+            // The solver's last pass measured this curve at these parameters already.
+            let errors = if r.point_errors_rad.len() == fit_points.len() {
+                std::mem::take(&mut r.point_errors_rad)
+            } else {
+                pointwise_errors(&r.spline, &fit_points, &r.parameters)
+            };
             let Some(knots) = refine(
                 r.spline.knots(),
                 r.spline.degree(),
@@ -148,7 +170,16 @@ pub fn fit_line(
             };
             let mut opts = options.clone().with_degree(degree).with_knot_vector(knots);
             opts.control_points = None;
+            r_quick = quick && round + 1 < REFINE_ROUNDS;
+            if r_quick {
+                opts.iterations = opts.iterations.min(1);
+            }
             r = run_opts(&opts).map_err(fit_err)?;
+        }
+        if r_quick {
+            let opts = options.clone().with_degree(degree);
+            r = crate::sphere::fit::gls_pia::resume_accelerated(r, &fit_points, &opts)
+                .map_err(fit_err)?;
         }
     } else if options.control_points.is_none() {
         // The count from the data: a quarter of the positions, or half of them when a quarter

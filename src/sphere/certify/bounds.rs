@@ -8,7 +8,9 @@
 //! All angles are radians on the unit sphere S^n (any n); nothing here knows about metres.
 
 use crate::sphere::geometry::arc::ArcFrame;
-use crate::sphere::geometry::point::{angle_between, dot, Dim, Dynamic};
+use crate::sphere::geometry::point::{
+    angle_between, dot, sinc_series, Dim, Dynamic, SERIES_ANGLE_MAX_RAD,
+};
 
 /// Added to every proven bound: the bounds hold in exact arithmetic, and the curve's own
 /// evaluation, the distances and the trigonometry each round at about 1e-16 rad; 1e-12 rad
@@ -28,13 +30,26 @@ const CHORD_SLACK_RAD: f64 = 1e-15;
 /// (the SLERP weights blow up near pi): the caller subdivides instead.
 const THETA_LIMIT_RAD: f64 = std::f64::consts::PI - 1e-3;
 
+/// `sin(x) / x` for `0 <= x < pi`: the series of [`crate::sphere::geometry`] up to its range
+/// (exact to rounding there, and a tenth of libm's cost: the bounds below take several per
+/// node of a SLERP triangle, whose angles are nearly always small), libm beyond.
+#[inline]
+fn sinc(x: f64) -> f64 {
+    if x <= SERIES_ANGLE_MAX_RAD {
+        sinc_series(x)
+    } else {
+        x.sin() / x
+    }
+}
+
 /// `sin((1 - alpha) theta) / sin theta`, the first SLERP weight, for theta in [0, pi).
 #[inline]
 fn weight0(alpha: f64, theta: f64) -> f64 {
     if theta < 1e-8 {
         1.0 - alpha
     } else {
-        ((1.0 - alpha) * theta).sin() / theta.sin()
+        // = (1 - alpha) sinc((1 - alpha) theta) / sinc(theta).
+        (1.0 - alpha) * sinc((1.0 - alpha) * theta) / sinc(theta)
     }
 }
 
@@ -94,8 +109,8 @@ pub(crate) fn triangle_speed_bound(
             let (left, right) = scratch.split_at_mut(j * dim);
             let a = &left[(j - 1) * dim..j * dim];
             let b = &mut right[..dim];
-            let theta_a = angle_between(a, b);
-            let theta = theta_a + (speed[j - 1] + speed[j]) * width;
+            let arc = crate::sphere::geometry::point::Arc::between(d, a, b);
+            let theta = arc.theta + (speed[j - 1] + speed[j]) * width;
             if theta >= THETA_LIMIT_RAD || !theta.is_finite() {
                 return f64::INFINITY;
             }
@@ -107,7 +122,6 @@ pub(crate) fn triangle_speed_bound(
             speed[j] = w0 * speed[j - 1] + w1 * speed[j] + theta * na.slope.abs();
             // The node's position at the start of the interval, for the next level's angles.
             let s = na.at_start.clamp(0.0, 1.0);
-            let arc = crate::sphere::geometry::point::Arc::between(d, a, b);
             let (v0, v1) = arc.weights_unit(s);
             for c in 0..dim {
                 tmp[c] = v0 * a[c] + v1 * b[c];
@@ -154,13 +168,26 @@ pub(crate) fn triangle_acceleration_bound(
     width: f64,
     scratch: &mut Vec<f64>,
 ) -> f64 {
+    crate::with_dim!(dim, |d| triangle_acceleration_bound_in(
+        d, control, &alpha, width, scratch
+    ))
+}
+
+/// [`triangle_acceleration_bound`] in dimension `d`.
+fn triangle_acceleration_bound_in<D: Dim>(
+    d: D,
+    control: &[f64],
+    alpha: &impl Fn(usize, usize) -> NodeAlpha,
+    width: f64,
+    scratch: &mut Vec<f64>,
+) -> f64 {
+    let dim = d.get();
     let m_pts = control.len() / dim;
     let p = m_pts - 1;
     scratch.clear();
     scratch.extend_from_slice(control);
     let mut speed = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
     let mut accel = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
-    let d = Dynamic(dim);
     let mut tmp = [0.0f64; 16];
     let mut tmp_heap = Vec::new();
     let tmp: &mut [f64] = if dim <= 16 {
@@ -176,7 +203,8 @@ pub(crate) fn triangle_acceleration_bound(
             let b = &mut right[..dim];
             let (va, vb, aa, ab) = (speed[j - 1], speed[j], accel[j - 1], accel[j]);
             let v_theta = va + vb;
-            let theta = angle_between(a, b) + v_theta * width;
+            let arc = crate::sphere::geometry::point::Arc::between(d, a, b);
+            let theta = arc.theta + v_theta * width;
             if theta >= ACCEL_THETA_LIMIT_RAD || !theta.is_finite() {
                 return f64::INFINITY;
             }
@@ -186,14 +214,13 @@ pub(crate) fn triangle_acceleration_bound(
             let w0 = weight0(lo, theta);
             let w1 = weight0(1.0 - hi, theta);
             let m = na.slope.abs();
-            let s = if theta < 1e-8 {
-                1.0
-            } else {
-                theta / theta.sin()
-            };
+            // theta / sin theta, and 1 - cos theta = 2 sin^2(theta / 2), from the series.
+            let s = 1.0 / sinc(theta);
             let s2 = s * s;
             let s3 = s2 * s;
-            let q = v_theta * v_theta + 2.0 * (1.0 - theta.cos()) * va * vb;
+            let half_sin = 0.5 * theta * sinc(0.5 * theta);
+            let one_minus_cos = 2.0 * half_sin * half_sin;
+            let q = v_theta * v_theta + 2.0 * one_minus_cos * va * vb;
             accel[j] = theta * theta * m * m
                 + (10.0 / 3.0) * m * v_theta * theta * s2
                 + 0.75 * v_theta * v_theta * (s + 2.0 * s3 / 3.0)
@@ -203,7 +230,6 @@ pub(crate) fn triangle_acceleration_bound(
                 + w1 * ab;
             speed[j] = w0 * va + w1 * vb + theta * m;
             let st = na.at_start.clamp(0.0, 1.0);
-            let arc = crate::sphere::geometry::point::Arc::between(d, a, b);
             let (v0, v1) = arc.weights_unit(st);
             for c in 0..dim {
                 tmp[c] = v0 * a[c] + v1 * b[c];

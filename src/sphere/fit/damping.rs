@@ -80,6 +80,7 @@ impl Run {
             spline: self.spline,
             parameters: params,
             metrics: self.m,
+            point_errors_rad: self.pass.each,
             iterations: self.iterations,
             converged: self.converged,
             history: self.history,

@@ -225,6 +225,9 @@ pub struct FitReport {
     pub parameters: Vec<f64>,
     /// Errors of the returned curve at the data parameters.
     pub metrics: ErrorMetrics,
+    /// The error of every point of the returned curve at its parameter (radians), when the
+    /// solver's last pass measured that curve (the banded solvers); empty otherwise.
+    pub point_errors_rad: Vec<f64>,
     /// Number of control point updates made (accepted steps for Gauss–Newton).
     pub iterations: usize,
     /// True when the iteration stopped because it met the error target or stagnated, false when
@@ -324,6 +327,40 @@ pub fn fit(
         }
     };
     options.cancel.check()?;
+    Ok(r)
+}
+
+/// Continues accelerated GLS-PIA (without parameter correction) from the curve of `report`
+/// at its parameters with `options`, as if its iterations had not stopped: the adaptive-knot
+/// refinement fits its intermediate rounds with one update (the accelerated update lands
+/// within about 1e-9 of GLS-PIA's fixed point in one step at fixed knots and parameters, so
+/// a second only confirms it) and resumes the round it keeps. Iterations and history add up.
+/// Reports of other solvers are returned as they are.
+///
+/// # Errors
+/// [`SphereError::Cancelled`] when `options.cancel` is cancelled.
+pub fn resume_accelerated(
+    report: FitReport,
+    points: &PointSet,
+    options: &FitOptions,
+) -> Result<FitReport, SphereError> {
+    if report.solver != Solver::GlsPiaAccelerated || report.converged {
+        return Ok(report);
+    }
+    let FitReport {
+        spline,
+        parameters,
+        mut history,
+        iterations,
+        ..
+    } = report;
+    let mut rest = options.clone();
+    rest.iterations = rest.iterations.saturating_sub(iterations);
+    let mut r = super::accelerated::gls_pia_accelerated(spline, points, parameters, &rest);
+    options.cancel.check()?;
+    history.extend_from_slice(&r.history[1..]);
+    r.history = history;
+    r.iterations += iterations;
     Ok(r)
 }
 
@@ -451,6 +488,7 @@ fn gls_pia_loop(
         spline,
         parameters: best_params.unwrap_or(params),
         metrics,
+        point_errors_rad: Vec::new(),
         iterations,
         converged,
         history,
@@ -492,7 +530,7 @@ pub(crate) fn gls_pia_iteration_local(
     params: &[f64],
     step: StepRule,
     moving: impl Fn(usize) -> bool,
-) -> super::metrics::ErrorSums {
+) -> (super::metrics::ErrorSums, Vec<f64>) {
     let global_mu = global_step(step, spline, params);
     let mut pass = run_pass(spline, points, params, PassMode::Accumulate);
     for (i, w) in pass.weights.iter_mut().enumerate() {
@@ -501,7 +539,7 @@ pub(crate) fn gls_pia_iteration_local(
         }
     }
     apply_moves(spline, &pass.moves, &pass.weights, global_mu);
-    pass.errors
+    (pass.errors, pass.each)
 }
 
 /// `P_i ← (P_i + μ_i M_i) / |P_i + μ_i M_i|` with `M_i = Σ_j D_i(t_j) δ_j` and `μ_i = 1 / Σ_j
@@ -612,6 +650,42 @@ mod tests {
                 "{step:?}"
             );
         }
+    }
+
+    #[test]
+    fn the_banded_solvers_report_every_point_error_of_the_curve_returned() {
+        let pts = wavy(300);
+        for solver in [Solver::GlsPiaAccelerated, Solver::GaussNewton] {
+            let mut opts = FitOptions::default().with_control_points(20);
+            opts.solver = solver;
+            let r = fit(&pts, None, &opts).unwrap();
+            let want = super::super::metrics::pointwise_errors(&r.spline, &pts, &r.parameters);
+            assert_eq!(r.point_errors_rad.len(), want.len(), "{solver:?}");
+            for (got, want) in r.point_errors_rad.iter().zip(&want) {
+                assert!((got - want).abs() <= 1e-15, "{solver:?}: {got} vs {want}");
+            }
+            assert!(r.point_errors_rad.iter().any(|&e| e > 1e-6));
+        }
+    }
+
+    #[test]
+    fn a_one_update_fit_resumed_ends_where_the_full_fit_ends() {
+        let pts = wavy(300);
+        let mut opts = FitOptions::default().with_control_points(20);
+        opts.solver = Solver::GlsPiaAccelerated;
+        let full = fit(&pts, None, &opts).unwrap();
+        let one = fit(&pts, None, &opts.clone().with_iterations(1)).unwrap();
+        assert_eq!(one.iterations, 1);
+        assert!(!one.converged);
+        let resumed = resume_accelerated(one, &pts, &opts).unwrap();
+        assert!(resumed.converged);
+        assert_eq!(resumed.iterations, full.iterations);
+        assert_eq!(resumed.history.len(), full.history.len());
+        let (a, b) = (resumed.metrics.rms_error_rad, full.metrics.rms_error_rad);
+        assert!((a - b).abs() <= 1e-9 * b, "{a} vs {b}");
+        // A converged report is returned as it is.
+        let again = resume_accelerated(resumed.clone(), &pts, &opts).unwrap();
+        assert_eq!(again.iterations, resumed.iterations);
     }
 
     #[test]

@@ -43,6 +43,9 @@ pub(crate) enum PassMode {
 
 pub(crate) struct PassResult {
     pub errors: ErrorSums,
+    /// The error of every point (radians), in order: the adaptive-knot refinement reads the
+    /// last pass's instead of measuring the curve again.
+    pub each: Vec<f64>,
     /// `Σ_j D_i(t_j) δ_j`, control point after control point (empty when measuring).
     pub moves: Vec<f64>,
     /// `Σ_j D_i(t_j)` per control point (empty when measuring).
@@ -55,6 +58,7 @@ pub(crate) struct PassResult {
 
 struct ChunkResult {
     errors: ErrorSums,
+    each: Vec<f64>,
     first_ctrl: usize,
     moves: Vec<f64>,
     weights: Vec<f64>,
@@ -114,6 +118,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
             let local = k_last - first_ctrl + 1;
             let mut out = ChunkResult {
                 errors: ErrorSums::default(),
+                each: Vec::with_capacity(ts.len()),
                 first_ctrl,
                 moves: Vec::new(),
                 weights: Vec::new(),
@@ -130,6 +135,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
                         let q = points.get(offset + j);
                         let (theta, _) = error_arc(d, q, &c_pt);
                         out.errors.add(offset + j, theta);
+                        out.each.push(theta);
                     }
                 }
                 PassMode::Accumulate => {
@@ -141,6 +147,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
                         let q = points.get(offset + j);
                         let (theta, scale) = error_arc(d, q, &c_pt);
                         out.errors.add(offset + j, theta);
+                        out.each.push(theta);
                         // δ_j = (q − C) / |q − C| · θ: chord direction, geodesic length.
                         let mut delta = [0.0; MAX_DIM_ON_STACK];
                         let delta = &mut delta[..dim.min(MAX_DIM_ON_STACK)];
@@ -183,6 +190,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
                             log_residual(d, q, &c_pt)
                         };
                         out.errors.add(offset + j, theta);
+                        out.each.push(theta);
                         let base = k - p - first_ctrl;
                         let coef = &scratch.contrib;
                         // r_j = scale · (q − (q·C) C), the log map of q at C; or GLS-PIA's
@@ -214,6 +222,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
                         let q = points.get(offset + j);
                         let (theta, scale) = log_residual(d, q, &c_pt);
                         out.errors.add(offset + j, theta);
+                        out.each.push(theta);
                         let cos = dot(d, q, &c_pt);
                         for x in 0..dim {
                             r[x] = scale * (q[x] - cos * c_pt[x]);
@@ -238,6 +247,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
 
     let mut result = PassResult {
         errors: ErrorSums::default(),
+        each: Vec::with_capacity(params.len()),
         moves: Vec::new(),
         weights: Vec::new(),
         band: None,
@@ -264,6 +274,7 @@ fn run_pass_kernel<D: Dim, G: Degree>(
             total.add_block(c.first_ctrl * band_stride, part);
         }
         result.errors.merge(&c.errors);
+        result.each.extend_from_slice(&c.each);
         for (i, w) in c.weights.iter().enumerate() {
             result.weights[c.first_ctrl + i] += w;
         }

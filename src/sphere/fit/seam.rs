@@ -149,12 +149,13 @@ pub fn close_fitted(
     let sub_params: Vec<f64> = window.iter().map(|&j| params[j]).collect();
     // The errors outside the window do not change: measured once, merged with each pass
     // (nothing to measure when the window is the whole ring, as for every small ring).
+    let mut all = Vec::new();
     let outside = if window.len() == params.len() {
         ErrorSums::default()
     } else {
         let mut sums = ErrorSums::default();
         let mut w = window.iter().peekable();
-        let all = pointwise_errors(&current, points, &params);
+        all = pointwise_errors(&current, points, &params);
         for (j, &e) in all.iter().enumerate() {
             if w.peek() == Some(&&j) {
                 w.next();
@@ -172,12 +173,13 @@ pub fn close_fitted(
         sums.metrics()
     };
     let mut history = open.history.clone();
-    let mut best: Option<(SphericalBSpline, super::metrics::ErrorMetrics)> = None;
+    // The best curve, its errors and its window's point errors.
+    let mut best: Option<(SphericalBSpline, super::metrics::ErrorMetrics, Vec<f64>)> = None;
     let mut iterations = open.iterations;
     let mut previous_rms = f64::INFINITY;
     for _ in 0..SEAM_ITERATIONS {
         let before = current.clone();
-        let sub =
+        let (sub, sub_each) =
             gls_pia_iteration_local(&mut current, &sub_points, &sub_params, options.step, moving);
         let m = whole(sub);
         history.push(IterationError::of(&m));
@@ -186,9 +188,9 @@ pub fn close_fitted(
         previous_rms = m.rms_error_rad;
         if best
             .as_ref()
-            .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
+            .is_none_or(|(_, b, _)| m.rms_error_rad < b.rms_error_rad)
         {
-            best = Some((before, m));
+            best = Some((before, m, sub_each));
         }
         current = close_seam(&current, smooth)?;
         iterations += 1;
@@ -197,27 +199,35 @@ pub fn close_fitted(
         }
     }
     // Only the window's errors changed.
+    let sub_each = pointwise_errors(&current, &sub_points, &sub_params);
     let m = {
         let mut sub = ErrorSums::default();
-        for (j, e) in pointwise_errors(&current, &sub_points, &sub_params)
-            .into_iter()
-            .enumerate()
-        {
+        for (j, &e) in sub_each.iter().enumerate() {
             sub.add(j, e);
         }
         whole(sub)
     };
     if best
         .as_ref()
-        .is_none_or(|(_, b)| m.rms_error_rad < b.rms_error_rad)
+        .is_none_or(|(_, b, _)| m.rms_error_rad < b.rms_error_rad)
     {
-        best = Some((current, m));
+        best = Some((current, m, sub_each));
     }
-    let (spline, metrics) = best.expect("at least one measurement");
+    let (spline, metrics, sub_each) = best.expect("at least one measurement");
+    // Every point's error: the window's as measured on the curve kept, the rest unchanged.
+    let point_errors_rad = if all.is_empty() {
+        sub_each
+    } else {
+        for (&j, e) in window.iter().zip(sub_each) {
+            all[j] = e;
+        }
+        all
+    };
     Ok(FitReport {
         spline,
         parameters: params,
         metrics,
+        point_errors_rad,
         iterations,
         converged: open.converged,
         history,
@@ -327,5 +337,18 @@ mod tests {
         let m = measure(&closed.spline, &pts, &closed.parameters);
         assert!((m.rms_error_rad - closed.metrics.rms_error_rad).abs() <= 1e-12 * m.rms_error_rad);
         assert_eq!(m.max_error_index, closed.metrics.max_error_index);
+        // So are the point errors, which the knot refinement reads instead of measuring.
+        assert_point_errors(&closed, &pts);
+        let small = fit_closed(&ring(80), &FitOptions::default().with_control_points(16)).unwrap();
+        assert_point_errors(&small, &ring(80));
+    }
+
+    /// `r.point_errors_rad` are the errors of `r.spline` at `r.parameters`.
+    fn assert_point_errors(r: &FitReport, pts: &PointSet) {
+        let want = pointwise_errors(&r.spline, pts, &r.parameters);
+        assert_eq!(r.point_errors_rad.len(), want.len());
+        for (j, (got, want)) in r.point_errors_rad.iter().zip(&want).enumerate() {
+            assert!((got - want).abs() <= 1e-15, "point {j}: {got} vs {want}");
+        }
     }
 }
