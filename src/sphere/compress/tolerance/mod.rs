@@ -407,6 +407,7 @@ pub fn fit_to_tolerance(
         let (found, near) = search(
             line,
             internal_target(share * tolerance_rad),
+            tolerance_rad,
             cap,
             options,
             &degrees,

@@ -1,7 +1,11 @@
 //! A long line's degree-1 fit in pieces cut at sharp corners, fitted in parallel and joined.
 
 use super::fitter::Fitter;
-use super::{Curve, KnotRule, Line, ToleranceOptions};
+use super::{
+    decide_budget, internal_target, Curve, KnotRule, Line, ToleranceOptions, TWO_WAY_PRECISION,
+    VERTEX_SHARES,
+};
+use crate::sphere::certify::two_way::{two_way_distance, TwoWayOptions};
 use crate::sphere::compress::simplify::douglas_peucker_ordered;
 use crate::sphere::curve::bspline::{clamped_uniform_knots, Degree, SphericalBSpline};
 use crate::sphere::fit::adaptive_knots::turning_angles;
@@ -40,6 +44,7 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
     g: G,
     points: &PointSet,
     target: f64,
+    tolerance_rad: f64,
     options: &ToleranceOptions,
 ) -> Option<(Curve, bool)> {
     use rayon::prelude::*;
@@ -67,6 +72,13 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
         pin_ends: true,
         ..options.clone()
     };
+    // Each piece is certified on its own (its two-way distance to its points within the
+    // tolerance): the whole curve's two-way distance is the largest of its pieces', so a
+    // piece that misses is fitted again closer (lower vertex shares), alone, instead of the
+    // whole line at the next share.
+    let check = TwoWayOptions::default()
+        .with_precision_rad(TWO_WAY_PRECISION * tolerance_rad)
+        .deciding(tolerance_rad);
     let pieces: Vec<Option<(Curve, f64)>> = junctions
         .par_windows(2)
         .map(|w| {
@@ -78,27 +90,66 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
             );
             let params = parameters(&sub, options.parameterization).ok()?;
             let n = sub.len();
+            let line = Line {
+                points: &sub,
+                params: &params,
+                free: true,
+            };
+            let fit = |kept: &[usize], target: f64| -> Option<(Curve, f64)> {
+                let mut f = Fitter::from_kept(d, g, line, kept, n, &piece_options)?;
+                f.reweight = options.reweight;
+                f.refine(target, n);
+                let max = f.max_error();
+                if max <= target {
+                    f.reduce(target);
+                }
+                // Degree 1 on uniform knots is the same polyline: errors unchanged.
+                let u = f.to_uniform(f64::INFINITY)?;
+                Some((u, f.max_error()))
+            };
+            let certified = |c: &Curve| {
+                two_way_distance(
+                    &c.spline,
+                    &sub,
+                    &c.params,
+                    &check.clone().with_max_evaluations(decide_budget(n)),
+                )
+                .is_ok_and(|tw| !tw.exceeded && tw.upper_rad <= tolerance_rad)
+            };
             // The whole line's seed between the junctions: its chords are the piece's, so it
             // keeps the piece's points in order within the target as it does the line's (and
             // the piece needs no Douglas–Peucker of its own).
             let from = seed.partition_point(|&i| i < a);
             let to = seed.partition_point(|&i| i <= b);
             let kept: Vec<usize> = seed[from..to].iter().map(|&i| i - a).collect();
-            let line = Line {
-                points: &sub,
-                params: &params,
-                free: true,
-            };
-            let mut f = Fitter::from_kept(d, g, line, &kept, n, &piece_options)?;
-            f.reweight = options.reweight;
-            f.refine(target, n);
-            let max = f.max_error();
-            if max <= target {
-                f.reduce(target);
+            let first = fit(&kept, target)?;
+            if first.1 > target || certified(&first.0) {
+                return Some(first);
             }
-            // Degree 1 on uniform knots is the same polyline: errors unchanged.
-            let u = f.to_uniform(f64::INFINITY)?;
-            Some((u, f.max_error()))
+            for lower in VERTEX_SHARES
+                .iter()
+                .map(|&s| internal_target(s * tolerance_rad))
+                .filter(|&t| t < target)
+            {
+                if crate::sphere::cancel::cancelled() {
+                    return None;
+                }
+                let kept = douglas_peucker_ordered(&sub, lower);
+                if let Some((c, e)) = fit(&kept, lower).filter(|(c, e)| *e <= lower && certified(c))
+                {
+                    return Some((c, e));
+                }
+            }
+            // The piece's own polyline: every point a vertex, error 0.
+            let spline =
+                SphericalBSpline::try_new(1, clamped_uniform_knots(n, 1), sub.clone()).ok()?;
+            let params = (0..n).map(|j| j as f64 / (n - 1) as f64).collect();
+            let curve = Curve {
+                spline,
+                params,
+                rule: KnotRule::Uniform,
+            };
+            Some((curve, 0.0))
         })
         .collect();
     if crate::sphere::cancel::cancelled() {
