@@ -87,6 +87,7 @@ fn polyline_through(line: Line, kept: &[usize]) -> Option<Curve> {
             spline,
             params,
             rule: KnotRule::Uniform,
+            decided: None,
         })
     } else {
         let mut knots = vec![base_params[kept[0]]; 2];
@@ -99,6 +100,7 @@ fn polyline_through(line: Line, kept: &[usize]) -> Option<Curve> {
             spline,
             params: base_params.to_vec(),
             rule: KnotRule::Stored,
+            decided: None,
         })
     }
 }

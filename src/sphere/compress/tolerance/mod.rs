@@ -379,10 +379,7 @@ pub fn fit_to_tolerance(
         .with_max_evaluations(two_way_budget(n));
     // Candidates are only asked "within the tolerance?": intervals proven under it are not
     // refined further, and a sample beyond it ends the check.
-    let tw_options = measure_options
-        .clone()
-        .deciding(tolerance_rad)
-        .with_max_evaluations(decide_budget(n));
+    let tw_options = decide_options(tolerance_rad, n);
     let mut candidates: Vec<Candidate> = Vec::new();
     // The best curve that misses, by two-way distance, in case nothing meets.
     let mut best_miss: Option<(Curve, ErrorMetrics, TwoWayDistance)> = None;
@@ -433,11 +430,15 @@ pub fn fit_to_tolerance(
         order.sort_by_key(|&i| stored_numbers(&found[i].0.spline, found[i].0.rule));
         let mut found: Vec<Option<(Curve, ErrorMetrics)>> = found.into_iter().map(Some).collect();
         for i in order {
-            let (c, m) = found[i].take().expect("each curve is taken once");
+            let (mut c, m) = found[i].take().expect("each curve is taken once");
             if stored_numbers(&c.spline, c.rule) >= yardstick {
                 break;
             }
-            let tw = two_way_distance(&c.spline, points, &c.params, &tw_options)?;
+            // A long line's pieces come with this decision made (`Curve::decided`).
+            let tw = match c.decided.take() {
+                Some(tw) => tw,
+                None => two_way_distance(&c.spline, points, &c.params, &tw_options)?,
+            };
             let met = accepts(&tw, tolerance_rad, input_length);
             candidates.push(candidate(&c, &m, &tw, met, input_length));
             if met {
@@ -538,6 +539,15 @@ fn two_way_budget(n: usize) -> usize {
     4_000_000 + 400 * n
 }
 
+/// How a candidate is decided on a line of `n` points: "two-way distance within
+/// `tolerance_rad`?", to [`TWO_WAY_PRECISION`], within [`decide_budget`].
+fn decide_options(tolerance_rad: f64, n: usize) -> TwoWayOptions {
+    TwoWayOptions::default()
+        .with_precision_rad(TWO_WAY_PRECISION * tolerance_rad)
+        .deciding(tolerance_rad)
+        .with_max_evaluations(decide_budget(n))
+}
+
 /// Curve evaluations allowed per candidate's decision: real lines need tens of thousands (the
 /// 10m US–Mexico border at 25 m: 22k); a candidate that needs far more (a tolerance tiny
 /// against a curve whose control arcs are near a half turn, where the speed bound is loose) is
@@ -608,4 +618,7 @@ struct Curve {
     spline: SphericalBSpline,
     params: Vec<f64>,
     rule: KnotRule,
+    /// The candidate's decision ([`decide_options`] at the tolerance), when the fit that made
+    /// the curve has already made it (a long line's pieces do).
+    decided: Option<TwoWayDistance>,
 }

@@ -2,10 +2,9 @@
 
 use super::fitter::Fitter;
 use super::{
-    decide_budget, internal_target, Curve, KnotRule, Line, ToleranceOptions, TWO_WAY_PRECISION,
-    VERTEX_SHARES,
+    decide_options, internal_target, Curve, KnotRule, Line, ToleranceOptions, VERTEX_SHARES,
 };
-use crate::sphere::certify::two_way::{two_way_distance, TwoWayOptions};
+use crate::sphere::certify::two_way::{two_way_distance, TwoWayDistance};
 use crate::sphere::compress::simplify::douglas_peucker_ordered;
 use crate::sphere::curve::bspline::{clamped_uniform_knots, Degree, SphericalBSpline};
 use crate::sphere::fit::adaptive_knots::turning_angles;
@@ -72,97 +71,129 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
         pin_ends: true,
         ..options.clone()
     };
-    // Each piece is certified on its own (its two-way distance to its points within the
-    // tolerance): the whole curve's two-way distance is the largest of its pieces', so a
-    // piece that misses is fitted again closer (lower vertex shares), alone, instead of the
-    // whole line at the next share.
-    let check = TwoWayOptions::default()
-        .with_precision_rad(TWO_WAY_PRECISION * tolerance_rad)
-        .deciding(tolerance_rad);
-    let pieces: Vec<Option<(Curve, f64)>> = junctions
-        .par_windows(2)
-        .map(|w| {
+    // Piece k's points and their starting parameters.
+    let piece_line = |k: usize| -> Option<(PointSet, Vec<f64>)> {
+        let (a, b) = (junctions[k], junctions[k + 1]);
+        let sub =
+            PointSet::from_flat_unchecked(dim, points.as_flat()[a * dim..(b + 1) * dim].to_vec());
+        let params = parameters(&sub, options.parameterization).ok()?;
+        Some((sub, params))
+    };
+    // Seed, refinement and knot removal of one piece from the vertices `kept`.
+    let fit = |sub: &PointSet, params: &[f64], kept: &[usize], target: f64| {
+        let n = sub.len();
+        let line = Line {
+            points: sub,
+            params,
+            free: true,
+        };
+        let mut f = Fitter::from_kept(d, g, line, kept, n, &piece_options)?;
+        f.reweight = options.reweight;
+        f.refine(target, n);
+        if f.max_error() <= target {
+            f.reduce(target);
+        }
+        // Degree 1 on uniform knots is the same polyline: errors unchanged.
+        let u = f.to_uniform(f64::INFINITY)?;
+        Some((u, f.max_error()))
+    };
+    let pieces: Vec<Option<(Curve, f64)>> = (0..junctions.len() - 1)
+        .into_par_iter()
+        .map(|k| {
             let _scope = cancel.enter();
-            let (a, b) = (w[0], w[1]);
-            let sub = PointSet::from_flat_unchecked(
-                dim,
-                points.as_flat()[a * dim..(b + 1) * dim].to_vec(),
-            );
-            let params = parameters(&sub, options.parameterization).ok()?;
-            let n = sub.len();
-            let line = Line {
-                points: &sub,
-                params: &params,
-                free: true,
-            };
-            let fit = |kept: &[usize], target: f64| -> Option<(Curve, f64)> {
-                let mut f = Fitter::from_kept(d, g, line, kept, n, &piece_options)?;
-                f.reweight = options.reweight;
-                f.refine(target, n);
-                let max = f.max_error();
-                if max <= target {
-                    f.reduce(target);
-                }
-                // Degree 1 on uniform knots is the same polyline: errors unchanged.
-                let u = f.to_uniform(f64::INFINITY)?;
-                Some((u, f.max_error()))
-            };
-            let certified = |c: &Curve| {
-                two_way_distance(
-                    &c.spline,
-                    &sub,
-                    &c.params,
-                    &check.clone().with_max_evaluations(decide_budget(n)),
-                )
-                .is_ok_and(|tw| !tw.exceeded && tw.upper_rad <= tolerance_rad)
-            };
+            let (sub, params) = piece_line(k)?;
             // The whole line's seed between the junctions: its chords are the piece's, so it
             // keeps the piece's points in order within the target as it does the line's (and
             // the piece needs no Douglas–Peucker of its own).
+            let (a, b) = (junctions[k], junctions[k + 1]);
             let from = seed.partition_point(|&i| i < a);
             let to = seed.partition_point(|&i| i <= b);
             let kept: Vec<usize> = seed[from..to].iter().map(|&i| i - a).collect();
-            let first = fit(&kept, target)?;
-            if first.1 > target || certified(&first.0) {
-                return Some(first);
-            }
-            for lower in VERTEX_SHARES
-                .iter()
-                .map(|&s| internal_target(s * tolerance_rad))
-                .filter(|&t| t < target)
-            {
-                if crate::sphere::cancel::cancelled() {
-                    return None;
-                }
-                let kept = douglas_peucker_ordered(&sub, lower);
-                if let Some((c, e)) = fit(&kept, lower).filter(|(c, e)| *e <= lower && certified(c))
-                {
-                    return Some((c, e));
-                }
-            }
-            // The piece's own polyline: every point a vertex, error 0.
-            let spline =
-                SphericalBSpline::try_new(1, clamped_uniform_knots(n, 1), sub.clone()).ok()?;
-            let params = (0..n).map(|j| j as f64 / (n - 1) as f64).collect();
-            let curve = Curve {
-                spline,
-                params,
-                rule: KnotRule::Uniform,
-            };
-            Some((curve, 0.0))
+            fit(&sub, &params, &kept, target)
         })
         .collect();
     if crate::sphere::cancel::cancelled() {
         return None;
     }
-    let pieces: Vec<(Curve, f64)> = pieces.into_iter().collect::<Option<_>>()?;
+    let mut pieces: Vec<(Curve, f64)> = pieces.into_iter().collect::<Option<_>>()?;
+    let (mut curve, mut met) = join(dim, points.len(), &pieces, target)?;
+    // The decision the caller makes on the joined curve, made here (the same curve, points,
+    // parameters and options, so the same answer) and handed over with it.
+    let check = decide_options(tolerance_rad, points.len());
+    let mut decided = two_way_distance(&curve.spline, points, &curve.params, &check).ok();
+    let within = |tw: &TwoWayDistance| !tw.exceeded && tw.upper_rad <= tolerance_rad;
+    if met && !decided.as_ref().is_some_and(within) {
+        // The whole curve's two-way distance is the largest of its pieces' (they meet at
+        // junction points, matched there on both sides): a piece beyond the tolerance is
+        // fitted again closer (the lower vertex shares, then its own polyline), alone,
+        // instead of the whole line at the next share.
+        pieces = pieces
+            .into_par_iter()
+            .enumerate()
+            .map(|(k, (c, e))| {
+                let _scope = cancel.enter();
+                let (sub, params) = piece_line(k)?;
+                let piece_check = decide_options(tolerance_rad, sub.len());
+                let certified = |c: &Curve| {
+                    two_way_distance(&c.spline, &sub, &c.params, &piece_check)
+                        .is_ok_and(|tw| within(&tw))
+                };
+                if certified(&c) {
+                    return Some((c, e));
+                }
+                for lower in VERTEX_SHARES
+                    .iter()
+                    .map(|&s| internal_target(s * tolerance_rad))
+                    .filter(|&t| t < target)
+                {
+                    if crate::sphere::cancel::cancelled() {
+                        return None;
+                    }
+                    let kept = douglas_peucker_ordered(&sub, lower);
+                    let refit = fit(&sub, &params, &kept, lower)
+                        .filter(|(c, e)| *e <= lower && certified(c));
+                    if refit.is_some() {
+                        return refit;
+                    }
+                }
+                // The piece's own polyline: every point a vertex, error 0.
+                let n = sub.len();
+                let spline = SphericalBSpline::try_new(1, clamped_uniform_knots(n, 1), sub).ok()?;
+                let params = (0..n).map(|j| j as f64 / (n - 1) as f64).collect();
+                let curve = Curve {
+                    spline,
+                    params,
+                    rule: KnotRule::Uniform,
+                    decided: None,
+                };
+                Some((curve, 0.0))
+            })
+            .collect::<Option<Vec<_>>>()?;
+        if crate::sphere::cancel::cancelled() {
+            return None;
+        }
+        (curve, met) = join(dim, points.len(), &pieces, target)?;
+        decided = two_way_distance(&curve.spline, points, &curve.params, &check).ok();
+    }
+    curve.decided = decided;
+    Some((curve, met))
+}
+
+/// The pieces' polylines joined into one on uniform knots (see [`polyline_in_pieces`]), and
+/// whether every piece's vertex errors are within `target`.
+fn join(
+    dim: usize,
+    n_points: usize,
+    pieces: &[(Curve, f64)],
+    target: f64,
+) -> Option<(Curve, bool)> {
     let total: usize = pieces
         .iter()
         .map(|(c, _)| c.spline.control_points().len() - 1)
         .sum::<usize>()
         + 1;
     let mut coords = Vec::with_capacity(total * dim);
-    let mut params = Vec::with_capacity(points.len());
+    let mut params = Vec::with_capacity(n_points);
     let mut offset = 0usize;
     let mut max = 0.0f64;
     for (k, (c, e)) in pieces.iter().enumerate() {
@@ -184,13 +215,13 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
     *params.last_mut()? = 1.0;
     let ctrl = PointSet::from_flat_unchecked(dim, coords);
     let spline = SphericalBSpline::try_new(1, clamped_uniform_knots(total, 1), ctrl).ok()?;
-    let met = max <= target;
     Some((
         Curve {
             spline,
             params,
             rule: KnotRule::Uniform,
+            decided: None,
         },
-        met,
+        max <= target,
     ))
 }
