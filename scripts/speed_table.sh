@@ -24,15 +24,20 @@ TOLERANCES="${TOLERANCES:-10 100 1000 5000}"
 dir=target/speed-bench
 out="$dir/table"
 mkdir -p "$out"
-PREPARE_ONLY=1 scripts/speed_bench.sh
-BIN="${BIN:-target/release/spherefit}"
+if [ ! -s "$dir/land10m_rings.geojson" ] || [ ! -x "$dir/node/node_modules/.bin/mapshaper" ]; then
+  PREPARE_ONLY=1 scripts/speed_bench.sh
+fi
+if [ -z "${BIN:-}" ]; then
+  cargo build --quiet --release --bin spherefit
+  BIN=target/release/spherefit
+fi
 mapshaper="$dir/node/node_modules/.bin/mapshaper"
 input="$dir/land10m_rings.geojson"
 
 secs() { /usr/bin/time -f %e "$@" 2>&1 >/dev/null | tail -1; }
 median() { tr ' ' '\n' | grep . | sort -g | awk '{a[NR]=$1} END {print (NR % 2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
 
-echo "commit $(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src || echo '+dirty'), $(date -u '+%Y-%m-%d %H:%M UTC'), load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "tree at commit $(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src || echo '+dirty'), $(date -u '+%Y-%m-%d %H:%M UTC'), load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "RUNS=$RUNS THREADS=$THREADS BIN=$BIN"
 echo
 echo "| T | spherefit (median s) | mapshaper (median s) | ratio | spherefit stored | mapshaper numbers | rings met | worst two-way | rings mapshaper drops | spherefit stored on the rings mapshaper keeps | rings storing more than mapshaper |"

@@ -68,8 +68,10 @@
 //! from the replacing chord is not refitted; a removal that failed is retried in a later sweep
 //! only where a removal since changed its neighbourhood; a line of 1,024 or more seed vertices
 //! is cut into pieces of about 512 at pinned seed vertices (sharp corners), fitted in parallel
-//! (shifting the vertices behind a removal, and back when it fails, grows with the line). What
-//! keeps it fast on real lines:
+//! (shifting the vertices behind a removal, and back when it fails, grows with the line); a
+//! piece whose two-way distance misses is refitted alone at the lower shares, not the whole
+//! line; a polyline with four or more points per span (a coarse tolerance) refits only a
+//! removed vertex's two neighbours. What keeps it fast on real lines:
 //! * **A degree probe.** Degrees 2 and 3 are tried only when the best polyline bends the way a
 //!   smooth curve does: two thirds or more of its neighbouring turns bend the same way (bends
 //!   of three or more vertices between inflections). Coastlines and GPS tracks at small

@@ -38,6 +38,14 @@ const JUNCTION_REACH: usize = 32;
 /// The pieces' polylines join into one on uniform knots: piece k's local parameter t of its
 /// m_k vertices maps to (o_k + t (m_k − 1)) / (M − 1), o_k being the segments before it and M
 /// the vertices of the whole; the errors are the pieces'.
+///
+/// The joined curve is decided here ("two-way distance within `tolerance_rad`?", the caller's
+/// decision, handed over in [`Curve::decided`]). When it misses, each piece is decided on its
+/// own (the whole curve's two-way distance is the largest of its pieces': they meet at
+/// junction points, matched there on both sides) and a piece that misses is fitted again at
+/// the lower [`VERTEX_SHARES`], then replaced by its own points: the line is not fitted again
+/// whole at the next share and then given up for a Douglas–Peucker fallback, as the largest
+/// land rings were at 5 km (`docs/speed.md`, "Across tolerances").
 pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
     d: D,
     g: G,
