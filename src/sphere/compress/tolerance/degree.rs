@@ -13,6 +13,7 @@ use crate::sphere::SphereError;
 pub(super) fn search(
     line: Line,
     target_of: &dyn Fn(usize) -> f64,
+    tolerance_rad: f64,
     cap: usize,
     options: &ToleranceOptions,
     degrees: &[usize],
@@ -51,7 +52,14 @@ pub(super) fn search(
             .chain((yardstick < usize::MAX).then_some(yardstick))
             .min();
         let curves = crate::with_dim!(points.dim(), |d| with_degree!(p, |g| fit_degree(
-            d, g, line, target, cap, budget, options
+            d,
+            g,
+            line,
+            target,
+            tolerance_rad,
+            cap,
+            budget,
+            options
         )));
         for c in curves {
             // Honest errors: measured afresh by the library's own pass on the returned curve.
@@ -134,11 +142,13 @@ fn smooth_bends(ctrl: &PointSet) -> bool {
 /// among the others.
 pub(super) type Searched = (Vec<(Curve, ErrorMetrics)>, Option<(Curve, ErrorMetrics)>);
 
+#[allow(clippy::too_many_arguments)]
 fn fit_degree<D: Dim, G: Degree>(
     d: D,
     g: G,
     line: Line,
     target: f64,
+    tolerance_rad: f64,
     cap: usize,
     budget: Option<usize>,
     options: &ToleranceOptions,
@@ -160,7 +170,7 @@ fn fit_degree<D: Dim, G: Degree>(
     };
     // (Pieces only where no cap on control points binds: a piece does not know the others.)
     if free && p == 1 && options.reduce && cap >= points.len() {
-        if let Some((c, met)) = polyline_in_pieces(d, g, points, target, options) {
+        if let Some((c, met)) = polyline_in_pieces(d, g, points, target, tolerance_rad, options) {
             if options.uniform_knots {
                 offer(c, met, &mut out);
             } else {

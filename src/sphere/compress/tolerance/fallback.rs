@@ -1,5 +1,5 @@
-//! The polyline fallbacks: Douglas–Peucker's vertices at the tolerance and a hair under it,
-//! then every point, for when no fitted curve meets the tolerance (and as the yardstick a
+//! The polyline fallbacks: Douglas–Peucker's vertices (plain, then ordered) at the tolerance
+//! and a hair under it, then every point, for when no fitted curve meets the tolerance (and as the yardstick a
 //! fitted curve must store fewer numbers than).
 
 use super::{Curve, KnotRule, Line};
@@ -9,10 +9,11 @@ use crate::sphere::compress::simplify::{
 use crate::sphere::curve::bspline::{clamped_uniform_knots, SphericalBSpline};
 
 /// How many polyline fallbacks [`polyline_candidate`] knows.
-pub(super) const POLYLINE_CANDIDATES: usize = 4;
+pub(super) const POLYLINE_CANDIDATES: usize = 5;
 
 /// The `k`-th polyline fallback, degree 1 on uniform knots (none stored): the Douglas–Peucker
-/// vertices at the tolerance and a hair under it, then every point. Each point's parameter is
+/// vertices at the tolerance, those of the ordered Douglas–Peucker, both again a hair under
+/// it, then every point. Each point's parameter is
 /// where it projects on its segment (kept non-decreasing). With given parameters the vertices
 /// are the time-aware Douglas–Peucker's (TD-TR, the error at a point's own parameter) and the
 /// knots are the kept points' parameters (stored); the polyline through every point then has
@@ -28,14 +29,16 @@ pub(super) fn polyline_candidate(line: Line, tolerance_rad: f64, k: usize) -> Op
     // With given parameters (times) the vertex error is the synchronized distance, so the
     // time-aware Douglas–Peucker (TD-TR) chooses the vertices, and the polyline through every
     // point (error 0 at every parameter) is the last resort. With free parameters, after plain
-    // Douglas–Peucker come the chords that keep the points in order (fjords and spikes that
-    // plain Douglas–Peucker cuts across), before every point.
+    // Douglas–Peucker comes the one whose chords keep the points in order (fjords and spikes
+    // that plain Douglas–Peucker cuts across, and the two-way distance then catches), at the
+    // tolerance and then a hair under it, before every point.
     let every = || (0..points.len()).collect::<Vec<usize>>();
     let kept = match (free, k) {
         (true, 0) => douglas_peucker(points, tolerance_rad),
-        (true, 1) => douglas_peucker(points, 0.95 * tolerance_rad),
-        (true, 2) => douglas_peucker_ordered(points, 0.95 * tolerance_rad),
-        (true, 3) => every(),
+        (true, 1) => douglas_peucker_ordered(points, tolerance_rad),
+        (true, 2) => douglas_peucker(points, 0.95 * tolerance_rad),
+        (true, 3) => douglas_peucker_ordered(points, 0.95 * tolerance_rad),
+        (true, 4) => every(),
         (false, 0) => synchronized_douglas_peucker(points, base_params, tolerance_rad),
         (false, 1) => synchronized_douglas_peucker(points, base_params, 0.95 * tolerance_rad),
         (false, 2) => every(),
@@ -84,6 +87,7 @@ fn polyline_through(line: Line, kept: &[usize]) -> Option<Curve> {
             spline,
             params,
             rule: KnotRule::Uniform,
+            decided: None,
         })
     } else {
         let mut knots = vec![base_params[kept[0]]; 2];
@@ -96,6 +100,7 @@ fn polyline_through(line: Line, kept: &[usize]) -> Option<Curve> {
             spline,
             params: base_params.to_vec(),
             rule: KnotRule::Stored,
+            decided: None,
         })
     }
 }

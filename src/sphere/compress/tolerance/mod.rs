@@ -68,8 +68,10 @@
 //! from the replacing chord is not refitted; a removal that failed is retried in a later sweep
 //! only where a removal since changed its neighbourhood; a line of 1,024 or more seed vertices
 //! is cut into pieces of about 512 at pinned seed vertices (sharp corners), fitted in parallel
-//! (shifting the vertices behind a removal, and back when it fails, grows with the line). What
-//! keeps it fast on real lines:
+//! (shifting the vertices behind a removal, and back when it fails, grows with the line); a
+//! piece whose two-way distance misses is refitted alone at the lower shares, not the whole
+//! line; a polyline with four or more points per span (a coarse tolerance) refits only a
+//! removed vertex's two neighbours. What keeps it fast on real lines:
 //! * **A degree probe.** Degrees 2 and 3 are tried only when the best polyline bends the way a
 //!   smooth curve does: two thirds or more of its neighbouring turns bend the same way (bends
 //!   of three or more vertices between inflections). Coastlines and GPS tracks at small
@@ -396,10 +398,7 @@ pub fn fit_to_tolerance(
         .with_max_evaluations(two_way_budget(n));
     // Candidates are only asked "within the tolerance?": intervals proven under it are not
     // refined further, and a sample beyond it ends the check.
-    let tw_options = measure_options
-        .clone()
-        .deciding(tolerance_rad)
-        .with_max_evaluations(decide_budget(n));
+    let tw_options = decide_options(tolerance_rad, n);
     let mut candidates: Vec<Candidate> = Vec::new();
     // The best curve that misses, by two-way distance, in case nothing meets.
     let mut best_miss: Option<(Curve, ErrorMetrics, TwoWayDistance)> = None;
@@ -450,6 +449,7 @@ pub fn fit_to_tolerance(
         let (found, near) = search(
             line,
             &|p| internal_target(share_of(p) * tolerance_of(p)),
+            tolerance_rad,
             cap,
             options,
             &pass_degrees,
@@ -475,11 +475,15 @@ pub fn fit_to_tolerance(
         order.sort_by_key(|&i| stored_numbers(&found[i].0.spline, found[i].0.rule));
         let mut found: Vec<Option<(Curve, ErrorMetrics)>> = found.into_iter().map(Some).collect();
         for i in order {
-            let (c, m) = found[i].take().expect("each curve is taken once");
+            let (mut c, m) = found[i].take().expect("each curve is taken once");
             if stored_numbers(&c.spline, c.rule) >= yardstick {
                 break;
             }
-            let tw = two_way_distance(&c.spline, points, &c.params, &tw_options)?;
+            // A long line's pieces come with this decision made (`Curve::decided`).
+            let tw = match c.decided.take() {
+                Some(tw) => tw,
+                None => two_way_distance(&c.spline, points, &c.params, &tw_options)?,
+            };
             let met = accepts(&tw, tolerance_of(c.spline.degree()), input_length);
             candidates.push(candidate(&c, &m, &tw, met, input_length));
             if met {
@@ -585,6 +589,15 @@ fn two_way_budget(n: usize) -> usize {
     4_000_000 + 400 * n
 }
 
+/// How a candidate is decided on a line of `n` points: "two-way distance within
+/// `tolerance_rad`?", to [`TWO_WAY_PRECISION`], within [`decide_budget`].
+fn decide_options(tolerance_rad: f64, n: usize) -> TwoWayOptions {
+    TwoWayOptions::default()
+        .with_precision_rad(TWO_WAY_PRECISION * tolerance_rad)
+        .deciding(tolerance_rad)
+        .with_max_evaluations(decide_budget(n))
+}
+
 /// Curve evaluations allowed per candidate's decision: real lines need tens of thousands (the
 /// 10m US–Mexico border at 25 m: 22k); a candidate that needs far more (a tolerance tiny
 /// against a curve whose control arcs are near a half turn, where the speed bound is loose) is
@@ -655,4 +668,7 @@ struct Curve {
     spline: SphericalBSpline,
     params: Vec<f64>,
     rule: KnotRule,
+    /// The candidate's decision ([`decide_options`] at the tolerance), when the fit that made
+    /// the curve has already made it (a long line's pieces do).
+    decided: Option<TwoWayDistance>,
 }

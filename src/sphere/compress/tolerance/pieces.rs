@@ -1,7 +1,10 @@
 //! A long line's degree-1 fit in pieces cut at sharp corners, fitted in parallel and joined.
 
 use super::fitter::Fitter;
-use super::{Curve, KnotRule, Line, ToleranceOptions};
+use super::{
+    decide_options, internal_target, Curve, KnotRule, Line, ToleranceOptions, VERTEX_SHARES,
+};
+use crate::sphere::certify::two_way::{two_way_distance, TwoWayDistance};
 use crate::sphere::compress::simplify::douglas_peucker_ordered;
 use crate::sphere::curve::bspline::{clamped_uniform_knots, Degree, SphericalBSpline};
 use crate::sphere::fit::adaptive_knots::turning_angles;
@@ -35,11 +38,20 @@ const JUNCTION_REACH: usize = 32;
 /// The pieces' polylines join into one on uniform knots: piece k's local parameter t of its
 /// m_k vertices maps to (o_k + t (m_k − 1)) / (M − 1), o_k being the segments before it and M
 /// the vertices of the whole; the errors are the pieces'.
+///
+/// The joined curve is decided here ("two-way distance within `tolerance_rad`?", the caller's
+/// decision, handed over in [`Curve::decided`]). When it misses, each piece is decided on its
+/// own (the whole curve's two-way distance is the largest of its pieces': they meet at
+/// junction points, matched there on both sides) and a piece that misses is fitted again at
+/// the lower [`VERTEX_SHARES`], then replaced by its own points: the line is not fitted again
+/// whole at the next share and then given up for a Douglas–Peucker fallback, as the largest
+/// land rings were at 5 km (`docs/speed.md`, "Across tolerances").
 pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
     d: D,
     g: G,
     points: &PointSet,
     target: f64,
+    tolerance_rad: f64,
     options: &ToleranceOptions,
 ) -> Option<(Curve, bool)> {
     use rayon::prelude::*;
@@ -67,51 +79,129 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
         pin_ends: true,
         ..options.clone()
     };
-    let pieces: Vec<Option<(Curve, f64)>> = junctions
-        .par_windows(2)
-        .map(|w| {
+    // Piece k's points and their starting parameters.
+    let piece_line = |k: usize| -> Option<(PointSet, Vec<f64>)> {
+        let (a, b) = (junctions[k], junctions[k + 1]);
+        let sub =
+            PointSet::from_flat_unchecked(dim, points.as_flat()[a * dim..(b + 1) * dim].to_vec());
+        let params = parameters(&sub, options.parameterization).ok()?;
+        Some((sub, params))
+    };
+    // Seed, refinement and knot removal of one piece from the vertices `kept`.
+    let fit = |sub: &PointSet, params: &[f64], kept: &[usize], target: f64| {
+        let n = sub.len();
+        let line = Line {
+            points: sub,
+            params,
+            free: true,
+        };
+        let mut f = Fitter::from_kept(d, g, line, kept, n, &piece_options)?;
+        f.reweight = options.reweight;
+        f.refine(target, n);
+        if f.max_error() <= target {
+            f.reduce(target);
+        }
+        // Degree 1 on uniform knots is the same polyline: errors unchanged.
+        let u = f.to_uniform(f64::INFINITY)?;
+        Some((u, f.max_error()))
+    };
+    let pieces: Vec<Option<(Curve, f64)>> = (0..junctions.len() - 1)
+        .into_par_iter()
+        .map(|k| {
             let _scope = cancel.enter();
-            let (a, b) = (w[0], w[1]);
-            let sub = PointSet::from_flat_unchecked(
-                dim,
-                points.as_flat()[a * dim..(b + 1) * dim].to_vec(),
-            );
-            let params = parameters(&sub, options.parameterization).ok()?;
-            let n = sub.len();
+            let (sub, params) = piece_line(k)?;
             // The whole line's seed between the junctions: its chords are the piece's, so it
             // keeps the piece's points in order within the target as it does the line's (and
             // the piece needs no Douglas–Peucker of its own).
+            let (a, b) = (junctions[k], junctions[k + 1]);
             let from = seed.partition_point(|&i| i < a);
             let to = seed.partition_point(|&i| i <= b);
             let kept: Vec<usize> = seed[from..to].iter().map(|&i| i - a).collect();
-            let line = Line {
-                points: &sub,
-                params: &params,
-                free: true,
-            };
-            let mut f = Fitter::from_kept(d, g, line, &kept, n, &piece_options)?;
-            f.reweight = options.reweight;
-            f.refine(target, n);
-            let max = f.max_error();
-            if max <= target {
-                f.reduce(target);
-            }
-            // Degree 1 on uniform knots is the same polyline: errors unchanged.
-            let u = f.to_uniform(f64::INFINITY)?;
-            Some((u, f.max_error()))
+            fit(&sub, &params, &kept, target)
         })
         .collect();
     if crate::sphere::cancel::cancelled() {
         return None;
     }
-    let pieces: Vec<(Curve, f64)> = pieces.into_iter().collect::<Option<_>>()?;
+    let mut pieces: Vec<(Curve, f64)> = pieces.into_iter().collect::<Option<_>>()?;
+    let (mut curve, mut met) = join(dim, points.len(), &pieces, target)?;
+    // The decision the caller makes on the joined curve, made here (the same curve, points,
+    // parameters and options, so the same answer) and handed over with it.
+    let check = decide_options(tolerance_rad, points.len());
+    let mut decided = two_way_distance(&curve.spline, points, &curve.params, &check).ok();
+    let within = |tw: &TwoWayDistance| !tw.exceeded && tw.upper_rad <= tolerance_rad;
+    if met && !decided.as_ref().is_some_and(within) {
+        // The whole curve's two-way distance is the largest of its pieces' (they meet at
+        // junction points, matched there on both sides): a piece beyond the tolerance is
+        // fitted again closer (the lower vertex shares, then its own polyline), alone,
+        // instead of the whole line at the next share.
+        pieces = pieces
+            .into_par_iter()
+            .enumerate()
+            .map(|(k, (c, e))| {
+                let _scope = cancel.enter();
+                let (sub, params) = piece_line(k)?;
+                let piece_check = decide_options(tolerance_rad, sub.len());
+                let certified = |c: &Curve| {
+                    two_way_distance(&c.spline, &sub, &c.params, &piece_check)
+                        .is_ok_and(|tw| within(&tw))
+                };
+                if certified(&c) {
+                    return Some((c, e));
+                }
+                for lower in VERTEX_SHARES
+                    .iter()
+                    .map(|&s| internal_target(s * tolerance_rad))
+                    .filter(|&t| t < target)
+                {
+                    if crate::sphere::cancel::cancelled() {
+                        return None;
+                    }
+                    let kept = douglas_peucker_ordered(&sub, lower);
+                    let refit = fit(&sub, &params, &kept, lower)
+                        .filter(|(c, e)| *e <= lower && certified(c));
+                    if refit.is_some() {
+                        return refit;
+                    }
+                }
+                // The piece's own polyline: every point a vertex, error 0.
+                let n = sub.len();
+                let spline = SphericalBSpline::try_new(1, clamped_uniform_knots(n, 1), sub).ok()?;
+                let params = (0..n).map(|j| j as f64 / (n - 1) as f64).collect();
+                let curve = Curve {
+                    spline,
+                    params,
+                    rule: KnotRule::Uniform,
+                    decided: None,
+                };
+                Some((curve, 0.0))
+            })
+            .collect::<Option<Vec<_>>>()?;
+        if crate::sphere::cancel::cancelled() {
+            return None;
+        }
+        (curve, met) = join(dim, points.len(), &pieces, target)?;
+        decided = two_way_distance(&curve.spline, points, &curve.params, &check).ok();
+    }
+    curve.decided = decided;
+    Some((curve, met))
+}
+
+/// The pieces' polylines joined into one on uniform knots (see [`polyline_in_pieces`]), and
+/// whether every piece's vertex errors are within `target`.
+fn join(
+    dim: usize,
+    n_points: usize,
+    pieces: &[(Curve, f64)],
+    target: f64,
+) -> Option<(Curve, bool)> {
     let total: usize = pieces
         .iter()
         .map(|(c, _)| c.spline.control_points().len() - 1)
         .sum::<usize>()
         + 1;
     let mut coords = Vec::with_capacity(total * dim);
-    let mut params = Vec::with_capacity(points.len());
+    let mut params = Vec::with_capacity(n_points);
     let mut offset = 0usize;
     let mut max = 0.0f64;
     for (k, (c, e)) in pieces.iter().enumerate() {
@@ -127,14 +217,14 @@ pub(super) fn polyline_in_pieces<D: Dim, G: Degree>(
     *params.last_mut()? = 1.0;
     let ctrl = PointSet::from_flat_unchecked(dim, coords);
     let spline = SphericalBSpline::try_new(1, clamped_uniform_knots(total, 1), ctrl).ok()?;
-    let met = max <= target;
     Some((
         Curve {
             spline,
             params,
             rule: KnotRule::Uniform,
+            decided: None,
         },
-        met,
+        max <= target,
     ))
 }
 

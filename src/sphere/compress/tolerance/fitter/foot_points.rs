@@ -14,7 +14,14 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             return;
         }
         if self.p() == 1 {
-            self.correct_range_polyline(j0, j1);
+            // Each pass moves a foot point at most into the next span and holds it behind its
+            // neighbour's parameter as that was: `steps` passes let the feet settle, so a
+            // polyline seed meets its target without knot insertions (whole-curve refits).
+            for _ in 0..steps {
+                if !self.correct_range_polyline(j0, j1) {
+                    break;
+                }
+            }
             return;
         }
         let n = self.points.len();
@@ -89,11 +96,13 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// point, a sixth of a coastline's fitting time). A foot beyond the span's end stops at
     /// its vertex; the next correction carries on from the next span. Kept non-decreasing
     /// and only where it lowers the point's error, as the Newton steps are.
-    fn correct_range_polyline(&mut self, j0: usize, j1: usize) {
+    /// Returns whether any parameter moved.
+    fn correct_range_polyline(&mut self, j0: usize, j1: usize) -> bool {
         let n = self.points.len();
         let d = self.d;
         let last = self.last_span();
         let mut k = 1;
+        let mut moved = false;
         for j in j0.max(1)..j1.min(n - 1) {
             let e = self.err[j];
             if e == 0.0 {
@@ -170,8 +179,10 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             if en < e {
                 self.params[j] = clamped;
                 self.err[j] = en;
+                moved = true;
             }
         }
+        moved
     }
 
     pub(in crate::sphere::compress::tolerance) fn correct_all(&mut self, steps: usize) {

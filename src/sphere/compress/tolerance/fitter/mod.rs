@@ -256,6 +256,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             spline,
             params: self.params,
             rule,
+            decided: None,
         })
     }
 

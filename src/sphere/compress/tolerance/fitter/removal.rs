@@ -15,6 +15,12 @@ const REWEIGHT_WITHIN: f64 = 1.5;
 /// Extra control points freed on each side of a removed knot's p + 1 affected ones.
 const REMOVAL_MARGIN: usize = 1;
 
+/// A polyline (degree 1) with this many points per span or more on average when its removals
+/// start is refitted without the [`REMOVAL_MARGIN`]: its spans are long against the point
+/// spacing (a coarse tolerance), so each refit window holds many points and the margin's two
+/// extra spans cost most of the refit.
+const COARSE_POINTS_PER_SPAN: usize = 4;
+
 /// See [`Fitter::hopeless_removal`]: a point this many targets from the chord that would
 /// replace a removed vertex's two segments is not brought back by the window's refit.
 const HOPELESS_REMOVAL: f64 = 2.0;
@@ -32,6 +38,11 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// skips most of the second and third sweeps without changing the result.
     pub(in crate::sphere::compress::tolerance) fn reduce(&mut self, target: f64) {
         let p = self.p();
+        let margin = if p == 1 && self.points.len() >= COARSE_POINTS_PER_SPAN * self.n_ctrl() {
+            0
+        } else {
+            REMOVAL_MARGIN
+        };
         // Per knot: its removal failed and nothing within its reach changed since.
         let mut clean = vec![false; self.knots.len()];
         for _ in 0..REMOVAL_SWEEPS {
@@ -40,13 +51,13 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             while r < self.n_ctrl() && !crate::sphere::cancel::cancelled() {
                 if clean[r] {
                     r += 1;
-                } else if let Some((c0, c1)) = self.try_remove(r, target) {
+                } else if let Some((c0, c1)) = self.try_remove(r, target, margin) {
                     removed += 1;
                     clean.remove(r);
                     // Windows that read control points c0 .. c1 (or their points) belong to
                     // knots from about c0 − p − margin to c1 + 2p + margin.
-                    let lo = c0.saturating_sub(p + REMOVAL_MARGIN + 2);
-                    let hi = (c1 + 2 * p + REMOVAL_MARGIN + 3).min(clean.len());
+                    let lo = c0.saturating_sub(p + margin + 2);
+                    let hi = (c1 + 2 * p + margin + 3).min(clean.len());
                     clean[lo..hi].iter_mut().for_each(|c| *c = false);
                 } else {
                     clean[r] = true;
@@ -60,7 +71,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     }
 
     /// Tries to remove knot `r`: the refitted window of control points when kept.
-    fn try_remove(&mut self, r: usize, target: f64) -> Option<(usize, usize)> {
+    fn try_remove(&mut self, r: usize, target: f64, margin: usize) -> Option<(usize, usize)> {
         let (p, dim) = (self.p(), self.d.get());
         let n = self.n_ctrl();
         if n <= p + 1 {
@@ -77,8 +88,8 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         undo.removed.extend_from_slice(self.ctrl.get(c));
         self.ctrl.remove(c);
         let n = n - 1;
-        let c0 = (r + 1).saturating_sub(p + 2 + REMOVAL_MARGIN);
-        let c1 = (r + REMOVAL_MARGIN).min(n);
+        let c0 = (r + 1).saturating_sub(p + 2 + margin);
+        let c1 = (r + margin).min(n);
         undo.ctrl.clear();
         undo.ctrl
             .extend_from_slice(&self.ctrl.as_flat()[c0 * dim..c1 * dim]);
