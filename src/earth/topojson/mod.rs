@@ -190,7 +190,6 @@ pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
         next += i64::from(u);
     }
     renumber.extend((0..own.len() as i64).map(|i| next + i));
-    let mut geometries = geometries;
     for g in &mut geometries {
         remap_indices(g, &renumber);
     }
