@@ -2,7 +2,7 @@
 //! written at the decimals the tolerance needs and the certified bound is that of the rounded
 //! curve; `carry` chooses geometry, spline or both.
 
-use crate::helpers::{fixture_path, run_spherefit};
+use crate::helpers::{distance_to_arc, fixture_path, lonlat_to_unit, run_spherefit};
 use serde_json::Value;
 
 fn fit(args: &[&str]) -> Value {
@@ -69,9 +69,15 @@ fn carry_writes_geometry_spline_or_both_and_evaluate_draws_the_spline() {
         );
         assert_eq!(g["geometry"], b["geometry"]);
         assert!(g["properties"]["fit"].get("spline").is_none());
-        assert_eq!(
-            g["properties"]["fit"]["two_way_distance_m"],
-            b["properties"]["fit"]["two_way_distance_m"]
+        // Without the curve, the bound is the geometry's: the curve's plus its samples'
+        // deviation (rounding included).
+        let (bf, gf) = (&b["properties"]["fit"], &g["properties"]["fit"]);
+        let both_bound = bf["two_way_distance_m"].as_f64().unwrap()
+            + bf["sampling_deviation_m"].as_f64().unwrap();
+        let geometry_bound = gf["two_way_distance_m"].as_f64().unwrap();
+        assert!(
+            (geometry_bound - both_bound).abs() <= 0.0015,
+            "{geometry_bound} against {both_bound}"
         );
         assert!(s["geometry"].is_null());
         // The spline as a compact curve: base64 text, a fraction of the JSON document.
@@ -429,4 +435,77 @@ fn a_degree_one_fit_is_written_once_and_evaluates_to_the_same_geometry() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_ne!(out.status.code(), Some(0), "{err}");
     assert!(err.contains("control_points"), "{err}");
+}
+
+/// The largest distance from a point of `a` (every vertex and 7 points inside each step) to the
+/// polyline `b`, metres: a sampled directed Hausdorff distance, never above the true one.
+fn sampled_directed_m(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for w in a.windows(2) {
+        for k in 0..8 {
+            let f = k as f64 / 8.0;
+            let q: Vec<f64> = (0..3).map(|i| w[0][i] * (1.0 - f) + w[1][i] * f).collect();
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let q: Vec<f64> = q.iter().map(|x| x / n).collect();
+            let d = b
+                .windows(2)
+                .map(|s| distance_to_arc(&q, &s[0], &s[1]))
+                .fold(f64::INFINITY, f64::min);
+            worst = worst.max(d);
+        }
+    }
+    worst * 6_371_008.8
+}
+
+/// With `carry=geometry` the report's two-way distance bounds the geometry as written: a
+/// smooth curve's samples, rounded to the tolerance's 3 decimals, were written 762.8 m from
+/// this land ring while its report said 715.5 m (the curve's distance alone).
+#[test]
+fn a_geometry_only_fit_reports_the_distance_of_the_geometry_it_writes() {
+    let path = fixture_path("world_atlas_land_10m_ring_3441.geojson");
+    let input: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let line: Vec<Vec<f64>> = input["features"][0]["geometry"]["coordinates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| lonlat_to_unit(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+        .collect();
+    let out = run_spherefit(
+        &[
+            "fit",
+            "-q",
+            "--tolerance-m",
+            "880",
+            "--carry",
+            "geometry",
+            &path,
+        ],
+        None,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let fitted: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let f = &fitted["features"][0];
+    let written: Vec<Vec<f64>> = f["geometry"]["coordinates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| lonlat_to_unit(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+        .collect();
+    let measured = sampled_directed_m(&written, &line).max(sampled_directed_m(&line, &written));
+    let reported = f["properties"]["fit"]["two_way_distance_m"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        measured > 750.0,
+        "the case is still the one it was: {measured}"
+    );
+    assert!(
+        measured <= reported,
+        "written {measured} m from the line, reported {reported} m"
+    );
+    assert_eq!(f["properties"]["fit"]["tolerance_met"], reported <= 880.0);
 }

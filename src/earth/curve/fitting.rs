@@ -426,9 +426,24 @@ pub(super) fn finish_fit(
         }
     }
     fields.insert("output_points".into(), json!(points_out.len()));
+    // What is written is each sample rounded to the output's decimals: the written polyline
+    // is within the largest such shift of the sampled one, so the deviation it reports counts
+    // it (a degree-1 curve's samples are its rounded vertices and shift by nothing; a smooth
+    // curve's at 3 decimals by up to 79 m, which the report missed before).
+    let shift = points_out
+        .iter()
+        .map(|p| {
+            let (lon, lat) = unit_to_lonlat(p);
+            let precision = out.output.precision;
+            angle_between(
+                p,
+                &lonlat_to_unit(round_to(lon, precision), round_to(lat, precision)),
+            )
+        })
+        .fold(0.0f64, f64::max);
     fields.insert(
         "sampling_deviation_m".into(),
-        json!(round_m(rad_to_m(dense.max_deviation_rad))),
+        json!(round_up_m(rad_to_m(dense.max_deviation_rad + shift))),
     );
     Ok((
         CurveOutput {

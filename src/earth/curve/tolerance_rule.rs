@@ -34,7 +34,8 @@ impl ToleranceRule {
         tolerance_target_rad(self.tol_rad, self.precision)
     }
 
-    /// What a polyline may aim at instead ([`polyline_target_rad`]); curves of degree >= 2
+    /// What a polyline may aim at instead (below the tolerance by its vertices' rounding
+    /// only: it is written as its rounded vertices, with no sampling margin); curves of degree >= 2
     /// then keep the difference ([`crate::sphere::ToleranceOptions::smooth_margin_rad`]) and
     /// aim at [`Self::first_target_rad`] as before.
     pub fn polyline_target_rad(&self) -> f64 {
