@@ -103,7 +103,14 @@ pub(crate) fn triangle_speed_bound(
     scratch.extend_from_slice(control);
     let mut speed = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
     let d = Dynamic(dim);
-    let mut tmp = vec![0.0; dim];
+    let mut tmp = [0.0f64; 16];
+    let mut tmp_heap = Vec::new();
+    let tmp: &mut [f64] = if dim <= 16 {
+        &mut tmp[..dim]
+    } else {
+        tmp_heap.resize(dim, 0.0);
+        &mut tmp_heap
+    };
     for r in 1..=p {
         for j in (r..=p).rev() {
             let (left, right) = scratch.split_at_mut(j * dim);
@@ -126,7 +133,7 @@ pub(crate) fn triangle_speed_bound(
             for c in 0..dim {
                 tmp[c] = v0 * a[c] + v1 * b[c];
             }
-            let n = dot(d, &tmp, &tmp).sqrt();
+            let n = dot(d, tmp, tmp).sqrt();
             for c in 0..dim {
                 b[c] = tmp[c] / n;
             }

@@ -17,6 +17,7 @@ use crate::sphere::curve::{even_parameters, SphericalCurve};
 use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle_between, Dynamic, PointSet};
 use rayon::prelude::*;
+use smallvec::{smallvec, SmallVec};
 
 /// Interior samples spent on certifying one chord before the chord is halved instead.
 const CHORD_EVALUATIONS: usize = 24;
@@ -318,21 +319,26 @@ fn certify_chord(
     }
     let dim = pu.len();
     let frame = ArcFrame::new(Dynamic(dim), pu, pv);
-    // (t, point, distance to the chord)
-    let mut ts = vec![u, v];
-    let mut pts = [pu, pv].concat();
-    let mut gs = vec![0.0, 0.0];
+    // (t, point, distance to the chord), on the stack for the usual few cuts: most chords
+    // that get here settle after one to three levels, thousands of them per curve.
+    let mut ts: SmallVec<[f64; 16]> = smallvec![u, v];
+    let mut pts: SmallVec<[f64; 48]> = SmallVec::from_slice(pu);
+    pts.extend_from_slice(pv);
+    let mut gs: SmallVec<[f64; 16]> = smallvec![0.0, 0.0];
     // Open sub-intervals with the speed bound of the interval they were split from: a bound
     // over an interval holds on every part of it, so a part is first judged with its parent's
     // bound and gets its own (tighter, and the costly step) only when that does not settle it.
-    let mut open = vec![(0usize, 1usize, speed)];
+    let mut open: SmallVec<[(usize, usize, f64); 8]> = smallvec![(0usize, 1usize, speed)];
+    let mut split: SmallVec<[(usize, usize, f64); 8]> = SmallVec::new();
+    let mut mids: SmallVec<[f64; 8]> = SmallVec::new();
+    let mut mp: SmallVec<[f64; 24]> = SmallVec::new();
     let mut accepted: f64 = 0.0;
     let mut evaluations = 0;
     // With an acceleration bound the whole chord's bound below would be `second` (the chord
     // is its own arc, and no speed bound was taken), which already failed: halve at once.
     let mut whole_failed = accel.is_finite();
     loop {
-        let mut split = Vec::new();
+        split.clear();
         let mut worst_open: f64 = 0.0;
         for &(a, b, parent_speed) in &open {
             if std::mem::take(&mut whole_failed) {
@@ -371,15 +377,15 @@ fn certify_chord(
         if evaluations + split.len() > cap {
             return verdict(accepted.max(worst_open).min(whole), evaluations);
         }
-        let mids: Vec<f64> = split
-            .iter()
-            .map(|&(a, b, _)| 0.5 * (ts[a] + ts[b]))
-            .collect();
-        let mp = curve.evaluate_many(&mids);
+        mids.clear();
+        mids.extend(split.iter().map(|&(a, b, _)| 0.5 * (ts[a] + ts[b])));
+        mp.clear();
+        mp.resize(mids.len() * dim, 0.0);
+        curve.evaluate_into(&mids, &mut mp);
         evaluations += mids.len();
         open.clear();
         for (k, &(a, b, speed)) in split.iter().enumerate() {
-            let p = mp.get(k);
+            let p = &mp[k * dim..(k + 1) * dim];
             ts.push(mids[k]);
             pts.extend_from_slice(p);
             let g = frame.distance_dyn(p);

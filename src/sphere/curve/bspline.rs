@@ -190,16 +190,17 @@ impl SphericalBSpline {
     pub fn evaluate_many(&self, ts: &[f64]) -> PointSet {
         let dim = self.dim();
         let mut coords = vec![0.0; ts.len() * dim];
-        crate::with_dim!(dim, |d| with_degree!(self.degree, |g| self.evaluate_into(
-            d,
-            g,
-            ts,
-            &mut coords
-        )));
+        self.evaluate_into(ts, &mut coords);
         PointSet::from_flat_unchecked(dim, coords)
     }
 
-    fn evaluate_into<D: Dim, G: Degree>(&self, d: D, g: G, ts: &[f64], coords: &mut [f64]) {
+    /// [`evaluate_many`](Self::evaluate_many) into `coords` (`ts.len() * dim` values).
+    pub fn evaluate_into(&self, ts: &[f64], coords: &mut [f64]) {
+        crate::with_dim!(self.dim(), |d| with_degree!(self.degree, |g| self
+            .evaluate_into_in(d, g, ts, coords)));
+    }
+
+    fn evaluate_into_in<D: Dim, G: Degree>(&self, d: D, g: G, ts: &[f64], coords: &mut [f64]) {
         const CHUNK: usize = 4096;
         let dim = d.get();
         // The cache costs a SLERP set-up per control arc: worth it for passes over many
@@ -240,6 +241,9 @@ impl SphericalCurve for SphericalBSpline {
     fn evaluate_many(&self, ts: &[f64]) -> PointSet {
         SphericalBSpline::evaluate_many(self, ts)
     }
+    fn evaluate_into(&self, ts: &[f64], out: &mut [f64]) {
+        SphericalBSpline::evaluate_into(self, ts, out)
+    }
     fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
         SphericalBSpline::speed_bound(self, t0, t1)
     }
@@ -277,39 +281,40 @@ impl SphericalBSpline {
         let p = self.degree;
         let frame = Frame::new(p, &self.knots, &self.control);
         let dim = self.dim();
-        let mut scratch = Vec::with_capacity((p + 1) * dim);
-        let mut k = frame.span(t0);
-        let mut best: f64 = 0.0;
-        loop {
-            let (a, b) = (t0.max(self.knots[k]), t1.min(self.knots[k + 1]));
-            let u = &self.knots;
-            let ctrl = &self.control.as_flat()[(k - p) * dim..(k + 1) * dim];
-            let s = crate::sphere::certify::bounds::triangle_speed_bound(
-                dim,
-                ctrl,
-                |r, j| {
-                    let i = k - p + j;
-                    let den = u[i + p - r + 1] - u[i];
-                    let inv = if den > 0.0 { 1.0 / den } else { 0.0 };
-                    crate::sphere::certify::bounds::NodeAlpha {
-                        at_start: (a - u[i]) * inv,
-                        at_end: (b.max(a) - u[i]) * inv,
-                        slope: inv,
-                    }
-                },
-                (b - a).max(0.0),
-                &mut scratch,
-            );
-            best = best.max(s);
-            if k >= frame.last_span || self.knots[k + 1] >= t1 {
-                break;
-            }
-            k += 1;
-            while k < frame.last_span && self.knots[k + 1] <= self.knots[k] {
+        BOUND_SCRATCH.with_borrow_mut(|scratch| {
+            let mut k = frame.span(t0);
+            let mut best: f64 = 0.0;
+            loop {
+                let (a, b) = (t0.max(self.knots[k]), t1.min(self.knots[k + 1]));
+                let u = &self.knots;
+                let ctrl = &self.control.as_flat()[(k - p) * dim..(k + 1) * dim];
+                let s = crate::sphere::certify::bounds::triangle_speed_bound(
+                    dim,
+                    ctrl,
+                    |r, j| {
+                        let i = k - p + j;
+                        let den = u[i + p - r + 1] - u[i];
+                        let inv = if den > 0.0 { 1.0 / den } else { 0.0 };
+                        crate::sphere::certify::bounds::NodeAlpha {
+                            at_start: (a - u[i]) * inv,
+                            at_end: (b.max(a) - u[i]) * inv,
+                            slope: inv,
+                        }
+                    },
+                    (b - a).max(0.0),
+                    scratch,
+                );
+                best = best.max(s);
+                if k >= frame.last_span || self.knots[k + 1] >= t1 {
+                    break;
+                }
                 k += 1;
+                while k < frame.last_span && self.knots[k + 1] <= self.knots[k] {
+                    k += 1;
+                }
             }
-        }
-        best
+            best
+        })
     }
 
     /// An upper bound of |C''(t)| (ambient, radians per unit of t squared) over `[t0, t1]`
@@ -329,24 +334,32 @@ impl SphericalBSpline {
         }
         let dim = self.dim();
         let ctrl = &self.control.as_flat()[(k - p) * dim..(k + 1) * dim];
-        let mut scratch = Vec::with_capacity((p + 1) * dim);
-        crate::sphere::certify::bounds::triangle_acceleration_bound(
-            dim,
-            ctrl,
-            |r, j| {
-                let i = k - p + j;
-                let den = u[i + p - r + 1] - u[i];
-                let inv = if den > 0.0 { 1.0 / den } else { 0.0 };
-                crate::sphere::certify::bounds::NodeAlpha {
-                    at_start: (a - u[i]) * inv,
-                    at_end: (b - u[i]) * inv,
-                    slope: inv,
-                }
-            },
-            b - a,
-            &mut scratch,
-        )
+        BOUND_SCRATCH.with_borrow_mut(|scratch| {
+            crate::sphere::certify::bounds::triangle_acceleration_bound(
+                dim,
+                ctrl,
+                |r, j| {
+                    let i = k - p + j;
+                    let den = u[i + p - r + 1] - u[i];
+                    let inv = if den > 0.0 { 1.0 / den } else { 0.0 };
+                    crate::sphere::certify::bounds::NodeAlpha {
+                        at_start: (a - u[i]) * inv,
+                        at_end: (b - u[i]) * inv,
+                        slope: inv,
+                    }
+                },
+                b - a,
+                scratch,
+            )
+        })
     }
+}
+
+thread_local! {
+    /// The SLERP triangle the speed and acceleration bounds work in, kept per thread: dense
+    /// sampling asks for thousands of bounds per curve, and a fresh vector each time was a
+    /// measured share of its cost (allocation and free).
+    static BOUND_SCRATCH: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// C(t) together with D_i(t) for the `degree + 1` control points `first ..= first + degree`.
@@ -445,7 +458,8 @@ pub(crate) fn control_arcs<D: Dim>(d: D, control: &PointSet) -> Vec<Arc> {
 /// Per-thread working memory for de Boor: the triangle's points, its SLERP weights and the
 /// contribution coefficients.
 pub(crate) struct Scratch {
-    tri: Vec<f64>,
+    /// On the stack up to a cubic on S^4 (most fits): one is made per evaluation batch.
+    tri: smallvec::SmallVec<[f64; 32]>,
     /// `weights[r][j]`: the SLERP weights that made node (r, j) of the triangle.
     weights: [[(f64, f64); MAX_DEGREE + 1]; MAX_DEGREE + 1],
     /// After a contributing evaluation in span k: `contrib[m]` = D_{k−p+m}(t), m = 0..=p.
@@ -455,7 +469,7 @@ pub(crate) struct Scratch {
 impl Scratch {
     pub(crate) fn new(p: usize, dim: usize) -> Scratch {
         Scratch {
-            tri: vec![0.0; (p + 1) * dim],
+            tri: smallvec::smallvec![0.0; (p + 1) * dim],
             weights: [[(0.0, 0.0); MAX_DEGREE + 1]; MAX_DEGREE + 1],
             contrib: [0.0; MAX_DEGREE + 1],
         }

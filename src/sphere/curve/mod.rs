@@ -21,6 +21,13 @@ pub trait SphericalCurve: Send + Sync {
     /// The curve at every parameter of `ts` (unit vectors).
     fn evaluate_many(&self, ts: &[f64]) -> PointSet;
 
+    /// [`evaluate_many`](Self::evaluate_many) into `out` (`ts.len() * dim` coordinates): the
+    /// certification loops evaluate a few parameters at a time, thousands of times per curve,
+    /// where a fresh point set each time is a measured share of the cost.
+    fn evaluate_into(&self, ts: &[f64], out: &mut [f64]) {
+        out.copy_from_slice(self.evaluate_many(ts).as_flat());
+    }
+
     /// An upper bound of the speed |dC/dt| (radians per unit of parameter) over `[t0, t1]`
     /// (inside the domain, `t0 <= t1`), proven from the curve's construction (see
     /// [`crate::sphere::certify::bounds`]); infinity when no finite bound is known for so wide an interval
@@ -105,6 +112,12 @@ impl SphericalCurve for AnyCurve {
         match self {
             AnyCurve::BSpline(s) => s.evaluate_many(ts),
             AnyCurve::Beta(s) => s.evaluate_many(ts),
+        }
+    }
+    fn evaluate_into(&self, ts: &[f64], out: &mut [f64]) {
+        match self {
+            AnyCurve::BSpline(s) => SphericalCurve::evaluate_into(s, ts, out),
+            AnyCurve::Beta(s) => s.evaluate_into(ts, out),
         }
     }
     fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
