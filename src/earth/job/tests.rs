@@ -70,6 +70,7 @@ fn every_option_lands_in_its_place() {
             precision: 5,
             compact_splines: false,
             splines_refer_to_geometry: true,
+            grid_multiple: 1,
         }
     );
     assert!(j.drop_small_rings);

@@ -37,21 +37,30 @@ pub const OBJECT_NAME: &str = "collection";
 /// The quantisation of a topology at `precision` decimals of a degree.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quantisation {
-    /// Grid steps per degree: `10^precision`.
+    /// Grid steps per degree: `10^precision / multiple`.
     pub steps_per_degree: f64,
+    /// The grid step, degrees (the transform's scale).
+    pub step_deg: f64,
 }
 
 impl Quantisation {
     /// The grid of `precision` decimals.
     pub fn new(precision: u32) -> Quantisation {
+        Quantisation::of_grid(precision, 1)
+    }
+
+    /// The grid of `multiple` steps of `precision` decimals
+    /// ([`crate::earth::OutputOptions::grid_multiple`]).
+    pub fn of_grid(precision: u32, multiple: u32) -> Quantisation {
         Quantisation {
-            steps_per_degree: 10f64.powi(precision as i32),
+            steps_per_degree: 10f64.powi(precision as i32) / f64::from(multiple.max(1)),
+            step_deg: f64::from(multiple.max(1)) / 10f64.powi(precision as i32),
         }
     }
 
     /// The TopoJSON `transform` member.
     pub fn transform(&self) -> Value {
-        let step = 1.0 / self.steps_per_degree;
+        let step = self.step_deg;
         json!({"scale": [step, step], "translate": [-180.0, -90.0]})
     }
 
@@ -123,7 +132,7 @@ fn compact_spline(a: &super::topology::FittedArc, q: &Quantisation) -> Option<Va
 /// The TopoJSON topology of a fitted coverage, quantised at `precision` decimals, with the
 /// compact splines unless `carry` is [`Carry::Geometry`].
 pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
-    let q = Quantisation::new(precision);
+    let q = Quantisation::of_grid(precision, c.grid_multiple);
     let cells: Vec<Vec<Cell>> = c
         .arcs
         .iter()
