@@ -19,6 +19,10 @@ pub struct ToleranceRule {
     /// Decimal steps in one step of the grid they are rounded to
     /// ([`crate::earth::OutputOptions::grid_multiple`]): 1 unless a coverage's TopoJSON grid.
     pub grid_multiple: u32,
+    /// A coverage's first fit of an arc: a polyline aims at [`Self::snap_target_rad`] first.
+    /// Not for arcs refitted tighter to part from a neighbour (aiming nearer the tolerance
+    /// makes them stray towards it again).
+    pub snap_first: bool,
 }
 
 impl ToleranceRule {
@@ -29,7 +33,13 @@ impl ToleranceRule {
             tol_rad: m_to_rad(tolerance_m),
             precision,
             grid_multiple: 1,
+            snap_first: false,
         }
+    }
+
+    /// The rule with [`Self::snap_first`] set to `snap_first`.
+    pub fn with_snap_first(self, snap_first: bool) -> ToleranceRule {
+        ToleranceRule { snap_first, ..self }
     }
 
     /// The rule with positions rounded to a grid of `multiple` decimal steps.

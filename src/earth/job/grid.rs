@@ -59,6 +59,23 @@ pub fn round_to_grid(x: f64, precision: u32, multiple: u32) -> f64 {
     }
 }
 
+/// The two grid values around `x` degrees (the grid of [`round_to_grid`]): the highest at or
+/// below it and the next one up, written as [`round_to_grid`] writes them.
+pub fn grid_neighbours(x: f64, precision: u32, multiple: u32) -> [f64; 2] {
+    let scale = 10f64.powi(precision as i32);
+    let m = f64::from(multiple.max(1));
+    let k = ((x * scale) / m).floor();
+    let at = |k: f64| {
+        let r = k * m / scale;
+        if r == 0.0 {
+            0.0
+        } else {
+            r
+        }
+    };
+    [at(k), at(k + 1.0)]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -84,5 +101,16 @@ mod tests {
         assert_eq!(round_to_grid(-0.0001, 3, 3), 0.0);
         assert_eq!(round_to_grid(180.0, 3, 3), 180.0);
         assert_eq!(round_to_grid(-89.9999, 3, 3), -90.0);
+    }
+
+    #[test]
+    fn grid_neighbours_bracket_a_value_and_hold_its_rounding() {
+        for x in [12.3456, -12.3471, 0.0004, -0.0004, 179.9991] {
+            let [lo, hi] = grid_neighbours(x, 3, 4);
+            assert!(lo <= x && x < hi, "{x}: {lo} {hi}");
+            assert!(round_to_grid(x, 3, 4) == lo || round_to_grid(x, 3, 4) == hi);
+            assert_eq!(round_to_grid(lo, 3, 4), lo);
+            assert_eq!(round_to_grid(hi, 3, 4), hi);
+        }
     }
 }

@@ -23,7 +23,9 @@ mod tests;
 
 use checks::{check_count, invalid_option};
 pub use checks::{check_degree, check_fit_options, check_target_max_error_rad, check_tolerance};
-pub use grid::{round_to_grid, topojson_grid_multiple, TOPOJSON_GRID_SHARE_OF_TOLERANCE};
+pub use grid::{
+    grid_neighbours, round_to_grid, topojson_grid_multiple, TOPOJSON_GRID_SHARE_OF_TOLERANCE,
+};
 pub use into_job::into_job;
 pub use raw::{
     parse_json_number, Carry, OperationKind, OptionType, OutputFormat, ParameterizationOption,

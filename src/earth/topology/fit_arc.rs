@@ -83,7 +83,7 @@ pub(super) fn fit_arc(
     // First a polyline aiming nearer the tolerance, kept when its rounded vertices still meet
     // it as written (rounding moves most vertices far less than its bound); smooth curves aim
     // where they did.
-    let mut snap_try = tolerance.snap_target_rad() > target;
+    let mut snap_try = tolerance.snap_first && tolerance.snap_target_rad() > target;
     if snap_try {
         target = tolerance.snap_target_rad();
         topts.smooth_margin_rad = target - tolerance.first_target_rad();
@@ -107,10 +107,25 @@ pub(super) fn fit_arc(
             }
         }
         if snap_try {
-            // Over as written: the whole arc again at the target its rounding bound allows.
             snap_try = false;
             if met(&best.3) {
                 break best;
+            }
+            // Over as written: its vertices on the grid corners that keep its points closest
+            // rather than the nearest ones, else the whole arc again at the target its
+            // rounding bound allows.
+            if let Some((snapped, ll)) = super::snap::snap_polyline(
+                &r.spline,
+                &best.1,
+                &points,
+                &r.parameters,
+                output.precision,
+                tolerance.grid_multiple,
+            ) {
+                let m = measure(&snapped, &r.parameters)?;
+                if met(&m) {
+                    break (snapped, ll, r.knot_rule, m, best.4);
+                }
             }
             target = tolerance.polyline_target_rad();
             topts.smooth_margin_rad = target - tolerance.first_target_rad();

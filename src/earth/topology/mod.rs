@@ -211,6 +211,7 @@ mod fitting;
 mod read;
 mod rebuild;
 mod report;
+mod snap;
 #[cfg(test)]
 mod tests;
 
@@ -249,8 +250,9 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         job.output.grid_multiple
     };
     let graph = ArcGraph::build(&input.rings);
-    let tolerance =
-        ToleranceRule::new(*tolerance_m, job.output.precision).with_grid_multiple(grid_multiple);
+    let tolerance = ToleranceRule::new(*tolerance_m, job.output.precision)
+        .with_grid_multiple(grid_multiple)
+        .with_snap_first(true);
     let tol_rad = tolerance.tol_rad;
     let FittedArcs {
         arcs: fitted,
