@@ -719,12 +719,21 @@ pub(crate) fn round_spline(
     s: &SphericalBSpline,
     precision: u32,
 ) -> Result<(SphericalBSpline, Vec<[f64; 2]>), SphereError> {
+    round_spline_with(s, &|x| round_to(x, precision))
+}
+
+/// [`round_spline`] with the control points' degrees rounded by `round` (a coverage's grid,
+/// [`crate::earth::job::round_to_grid`]).
+pub(crate) fn round_spline_with(
+    s: &SphericalBSpline,
+    round: &dyn Fn(f64) -> f64,
+) -> Result<(SphericalBSpline, Vec<[f64; 2]>), SphereError> {
     let ll: Vec<[f64; 2]> = s
         .control_points()
         .iter()
         .map(|p| {
             let (lon, lat) = unit_to_lonlat(p);
-            [round_to(lon, precision), round_to(lat, precision)]
+            [round(lon), round(lat)]
         })
         .collect();
     let rows: Vec<[f64; 3]> = ll.iter().map(|p| lonlat_to_unit(p[0], p[1])).collect();
@@ -745,14 +754,14 @@ pub(super) fn fit_closed(
 }
 
 /// What a tolerance fit aims at so that the curve as returned meets `tol_rad`: below it by
-/// the rounding of the control points to `precision` decimals (when that leaves room), and by
-/// the deviation the dense output adds to the curve's distance from the line (when at least
-/// half the tolerance is left).
+/// `bound`, the most rounding the control points moves a position (when that leaves room:
+/// [`rounding_bound_rad`] of the precision, or a coverage's TopoJSON grid's), and by the
+/// deviation the dense output adds to the curve's distance from the line (when at least half
+/// the tolerance is left).
 ///
 /// That target serves every degree. A polyline written as it is needs less
 /// ([`polyline_target_rad`]).
-pub(crate) fn tolerance_target_rad(tol_rad: f64, precision: u32) -> f64 {
-    let bound = rounding_bound_rad(precision);
+pub(crate) fn tolerance_target_rad(tol_rad: f64, bound: f64) -> f64 {
     let mut target = if tol_rad > 3.0 * bound {
         tol_rad - 1.5 * bound
     } else {
@@ -766,19 +775,18 @@ pub(crate) fn tolerance_target_rad(tol_rad: f64, precision: u32) -> f64 {
 }
 
 /// What a polyline (a degree-1 curve, written as its vertices) aims at so that it meets
-/// `tol_rad` once rounded: below it by the rounding of its vertices alone. Rounding moves each
-/// vertex by at most [`rounding_bound_rad`] and a great-circle step by no more than its ends,
-/// and its dense output is its vertices (no sampling margin). What the bound misses (the
-/// sphere's curvature over a step) is caught by measuring the rounded curve and retried
-/// ([`ToleranceRule::retry_target_rad`]).
-pub(crate) fn polyline_target_rad(tol_rad: f64, precision: u32) -> f64 {
-    let bound = rounding_bound_rad(precision);
+/// `tol_rad` once rounded: below it by the rounding of its vertices alone (`bound`, as in
+/// [`tolerance_target_rad`]). Rounding moves each vertex by at most `bound` and a
+/// great-circle step by no more than its ends, and its dense output is its vertices (no
+/// sampling margin). What the bound misses (the sphere's curvature over a step) is caught by
+/// measuring the rounded curve and retried ([`ToleranceRule::retry_target_rad`]).
+pub(crate) fn polyline_target_rad(tol_rad: f64, bound: f64) -> f64 {
     if tol_rad > 3.0 * bound {
         tol_rad - bound
     } else {
         tol_rad
     }
-    .max(tolerance_target_rad(tol_rad, precision))
+    .max(tolerance_target_rad(tol_rad, bound))
 }
 
 #[cfg(test)]

@@ -136,7 +136,7 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
         Some(s) => Sampling::SpacingS(s),
         None => Sampling::from_samples_and_spacing(raw.samples, raw.spacing_m),
     };
-    let job = Job {
+    let mut job = Job {
         operation,
         output: OutputOptions {
             sampling,
@@ -156,6 +156,7 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
             },
             compact_splines: raw.carry == Some(Carry::Spline),
             splines_refer_to_geometry: true,
+            grid_multiple: 1,
         },
         limits: limits.clone(),
         cancel: Cancel::inherit(),
@@ -171,6 +172,18 @@ pub fn into_job(raw: RawOptions, kind: OperationKind, limits: &Limits) -> Result
         drop_small_rings: raw.drop_small_rings.unwrap_or(false),
         carry: raw.carry.unwrap_or_default(),
     };
+    // A coverage written as TopoJSON, its precision chosen by the tolerance: a coarser grid
+    // of those decimals (see `grid`).
+    if let (None, Some(t)) = (raw.precision, raw.tolerance_m) {
+        if job.format == OutputFormat::TopoJson
+            && job.topology == Topology::Shared
+            && job.output.precision == precision_for_tolerance(t)
+            && kind == OperationKind::Fit
+            && job.carry != Carry::Both
+        {
+            job.output.grid_multiple = topojson_grid_multiple(t, job.output.precision);
+        }
+    }
     job.validate()?;
     Ok(job)
 }

@@ -15,6 +15,7 @@ use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
 use std::str::FromStr;
 
 mod checks;
+mod grid;
 mod into_job;
 mod raw;
 #[cfg(test)]
@@ -22,6 +23,9 @@ mod tests;
 
 use checks::{check_count, invalid_option};
 pub use checks::{check_degree, check_fit_options, check_target_max_error_rad, check_tolerance};
+pub use grid::{
+    grid_neighbours, round_to_grid, topojson_grid_multiple, TOPOJSON_GRID_SHARE_OF_TOLERANCE,
+};
 pub use into_job::into_job;
 pub use raw::{
     parse_json_number, Carry, OperationKind, OptionType, OutputFormat, ParameterizationOption,
@@ -134,6 +138,10 @@ pub struct OutputOptions {
     /// instead of repeating them. True by default; false where a spline is read back without
     /// its geometry (Python's `fit` column, which `evaluate` reads alone).
     pub splines_refer_to_geometry: bool,
+    /// Decimal steps (of `precision`) in one step of the grid a coverage's positions are
+    /// rounded to: 1 (the decimal grid) unless a tolerance chose the precision of a coverage
+    /// written as TopoJSON ([`topojson_grid_multiple`]).
+    pub grid_multiple: u32,
 }
 
 impl Default for OutputOptions {
@@ -143,7 +151,21 @@ impl Default for OutputOptions {
             precision: DEFAULT_PRECISION,
             compact_splines: false,
             splines_refer_to_geometry: true,
+            grid_multiple: 1,
         }
+    }
+}
+
+impl OutputOptions {
+    /// Degrees rounded to the output grid ([`round_to_grid`]).
+    pub fn round_deg(&self, x: f64) -> f64 {
+        round_to_grid(x, self.precision, self.grid_multiple)
+    }
+
+    /// How far rounding to the output grid moves a position at most, radians.
+    pub fn rounding_bound_rad(&self) -> f64 {
+        f64::from(self.grid_multiple.max(1))
+            * crate::earth::curve::rounding_bound_rad(self.precision)
     }
 }
 

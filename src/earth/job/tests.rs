@@ -70,6 +70,7 @@ fn every_option_lands_in_its_place() {
             precision: 5,
             compact_splines: false,
             splines_refer_to_geometry: true,
+            grid_multiple: 1,
         }
     );
     assert!(j.drop_small_rings);
@@ -87,6 +88,32 @@ fn every_option_lands_in_its_place() {
         (j.topology, j.format),
         (Topology::Shared, OutputFormat::TopoJson)
     );
+}
+
+#[test]
+fn a_coverage_written_as_topojson_at_a_chosen_precision_gets_a_coarser_grid() {
+    let grid = |pairs: &[(&str, &str)]| {
+        let j = fit(pairs).unwrap();
+        (j.output.precision, j.output.grid_multiple)
+    };
+    let base = [
+        ("tolerance_m", "1000"),
+        ("topology", "shared"),
+        ("format", "topojson"),
+        ("carry", "geometry"),
+    ];
+    assert_eq!(grid(&base), (3, 4));
+    // GeoJSON, a given precision and carry=both keep the decimal grid (TopoJSON is only
+    // written with shared topology).
+    assert_eq!(
+        grid(&[base[0], base[1], ("format", "geojson"), base[3]]),
+        (3, 1)
+    );
+    assert_eq!(
+        grid(&[base[0], base[1], base[2], base[3], ("precision", "3")]),
+        (3, 1)
+    );
+    assert_eq!(grid(&[base[0], base[1], base[2], ("carry", "both")]).1, 1);
 }
 
 #[test]

@@ -1,14 +1,16 @@
 //! TopoJSON output of a coverage fitted with shared topology ([`super::topology`]).
 //!
 //! **Quantised, delta-encoded arcs.** The topology's `arcs` are the dense fitted arcs, written
-//! as TopoJSON's quantised integers: `transform` is `{"scale": [10^-p, 10^-p], "translate":
-//! [-180, -90]}` with `p` the output `precision` (which a tolerance chooses,
-//! [`crate::earth::precision_for_tolerance`]), each arc's first position is
-//! `[round((lon + 180)·10^p), round((lat + 90)·10^p)]` and every later one the difference from
-//! the previous. The grid is the decimal grid the fit already rounds its control points and
-//! dense positions to, so a reader's positions `k·10^-p − 180` are the rounded positions
-//! (within 1e-12 degrees, float arithmetic) and the certified two-way distance of the fit,
-//! measured on the rounded curve, covers what is written: quantisation adds nothing to it.
+//! as TopoJSON's quantised integers: `transform` is `{"scale": [s, s], "translate":
+//! [-180, -90]}` with `s = m·10^-p`, `p` the output `precision` (which a tolerance chooses,
+//! [`crate::earth::precision_for_tolerance`]) and `m` the coverage's grid multiple (1, or with
+//! a precision chosen by the tolerance the coarsest step rounding within a third of it,
+//! [`crate::earth::job::topojson_grid_multiple`]: 0.004 degrees at 1 km); each arc's first
+//! position is `[round((lon + 180)/s), round((lat + 90)/s)]` and every later one the difference
+//! from the previous. The grid is the one the fit already rounds its control points and dense
+//! positions to, so a reader's positions `k·s − 180` are the rounded positions (within 1e-12
+//! degrees, float arithmetic) and the certified two-way distance of the fit, measured on the
+//! rounded curve, covers what is written: quantisation adds nothing to it.
 //!
 //! Arc `i` is arc `i` of the coverage. Polygon features rebuilt from arcs reference them (`~i`
 //! for an arc used reversed); anything else (lines, polygons split at the antimeridian) gets
@@ -34,24 +36,34 @@ use serde_json::{json, Map, Value};
 /// The name of the one object of the topology.
 pub const OBJECT_NAME: &str = "collection";
 
-/// The quantisation of a topology at `precision` decimals of a degree.
+/// The quantisation of a topology: a grid of `multiple` steps of `precision` decimals of a
+/// degree.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quantisation {
-    /// Grid steps per degree: `10^precision`.
+    /// Grid steps per degree: `10^precision / multiple`.
     pub steps_per_degree: f64,
+    /// The grid step, degrees (the transform's scale).
+    pub step_deg: f64,
 }
 
 impl Quantisation {
     /// The grid of `precision` decimals.
     pub fn new(precision: u32) -> Quantisation {
+        Quantisation::of_grid(precision, 1)
+    }
+
+    /// The grid of `multiple` steps of `precision` decimals
+    /// ([`crate::earth::OutputOptions::grid_multiple`]).
+    pub fn of_grid(precision: u32, multiple: u32) -> Quantisation {
         Quantisation {
-            steps_per_degree: 10f64.powi(precision as i32),
+            steps_per_degree: 10f64.powi(precision as i32) / f64::from(multiple.max(1)),
+            step_deg: f64::from(multiple.max(1)) / 10f64.powi(precision as i32),
         }
     }
 
     /// The TopoJSON `transform` member.
     pub fn transform(&self) -> Value {
-        let step = 1.0 / self.steps_per_degree;
+        let step = self.step_deg;
         json!({"scale": [step, step], "translate": [-180.0, -90.0]})
     }
 
@@ -120,10 +132,11 @@ fn compact_spline(a: &super::topology::FittedArc, q: &Quantisation) -> Option<Va
     Some(Value::Object(m))
 }
 
-/// The TopoJSON topology of a fitted coverage, quantised at `precision` decimals, with the
+/// The TopoJSON topology of a fitted coverage, quantised at `precision` decimals (times its
+/// grid multiple, [`Coverage::grid_multiple`]), with the
 /// compact splines unless `carry` is [`Carry::Geometry`].
 pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
-    let q = Quantisation::new(precision);
+    let q = Quantisation::of_grid(precision, c.grid_multiple);
     let cells: Vec<Vec<Cell>> = c
         .arcs
         .iter()

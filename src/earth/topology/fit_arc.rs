@@ -37,6 +37,10 @@ pub(super) fn fit_arc(
     let n_in = if closed { rows.len() - 1 } else { rows.len() };
     let points = PointSet::try_from_rows(&rows).map_err(|e| sphere_error(e, "", &[]))?;
     let output = &job.output;
+    // The grid the arc is written on: the rule's (a coverage's TopoJSON grid, or the decimal
+    // one when that cannot draw the coverage's arcs apart; see `fitting`).
+    let round =
+        |x: f64| crate::earth::job::round_to_grid(x, output.precision, tolerance.grid_multiple);
     let tol_rad = tolerance.tol_rad;
     let line_length = polyline_length(&points);
     let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
@@ -76,23 +80,56 @@ pub(super) fn fit_arc(
     };
     let met = |m: &Measured| tolerance.met(m.worst_rad(), m.curve_length_rad, line_length);
     let mut attempt = 0;
+    // First a polyline aiming nearer the tolerance, kept when its rounded vertices still meet
+    // it as written (rounding moves most vertices far less than its bound); smooth curves aim
+    // where they did.
+    let mut snap_try = tolerance.snap_first && tolerance.snap_target_rad() > target;
+    if snap_try {
+        target = tolerance.snap_target_rad();
+        topts.smooth_margin_rad = target - tolerance.first_target_rad();
+    }
     let (spline, control_ll, rule, measured, seam) = loop {
         let r = fit_to_tolerance(&points, None, target, &topts)
             .map_err(|e| sphere_error(e, "", &[]))?;
         let (rounded, ll) =
-            round_spline(&r.spline, output.precision).map_err(|e| sphere_error(e, "", &[]))?;
+            round_spline_with(&r.spline, &round).map_err(|e| sphere_error(e, "", &[]))?;
         let m = measure(&rounded, &r.parameters)?;
         let mut best = (rounded, ll, r.knot_rule, m, closed.then_some("corner"));
         if closed && smooth_seam && r.spline.degree() >= 2 {
             // A C1 seam where the ring is smooth, kept when the tolerance still holds.
             if let Ok(c1) = close_seam(&r.spline, true) {
-                if let Ok((rc, llc)) = round_spline(&c1, output.precision) {
+                if let Ok((rc, llc)) = round_spline_with(&c1, &round) {
                     let m2 = measure(&rc, &r.parameters)?;
                     if met(&m2) {
                         best = (rc, llc, r.knot_rule, m2, Some("smooth"));
                     }
                 }
             }
+        }
+        if snap_try {
+            snap_try = false;
+            if met(&best.3) {
+                break best;
+            }
+            // Over as written: its vertices on the grid corners that keep its points closest
+            // rather than the nearest ones, else the whole arc again at the target its
+            // rounding bound allows.
+            if let Some((snapped, ll)) = super::snap::snap_polyline(
+                &r.spline,
+                &best.1,
+                &points,
+                &r.parameters,
+                output.precision,
+                tolerance.grid_multiple,
+            ) {
+                let m = measure(&snapped, &r.parameters)?;
+                if met(&m) {
+                    break (snapped, ll, r.knot_rule, m, best.4);
+                }
+            }
+            target = tolerance.polyline_target_rad();
+            topts.smooth_margin_rad = target - tolerance.first_target_rad();
+            continue;
         }
         let worst = best.3.worst_rad();
         if let Some(lower) = tolerance.retry_target_rad(target, worst, r.tolerance_met, attempt) {
@@ -128,12 +165,11 @@ pub(super) fn fit_arc(
     let (c0, c1) = (cps.get(0), cps.get(cps.len() - 1));
     pts[0] = [c0[0], c0[1], c0[2]];
     pts[last] = [c1[0], c1[1], c1[2]];
-    let precision = output.precision;
     let mut dense_ll: Vec<[f64; 2]> = pts
         .iter()
         .map(|p| {
             let (lon, lat) = unit_to_lonlat(p);
-            [round_to(lon, precision), round_to(lat, precision)]
+            [round(lon), round(lat)]
         })
         .collect();
     dense_ll[0] = control_ll[0];
@@ -165,6 +201,7 @@ pub(super) fn fit_arc(
     }
     let stored = stored_numbers(&spline, rule);
     let met = met(&measured);
+
     Ok(FittedArc {
         stored_numbers: stored,
         knot_rule: rule,

@@ -15,6 +15,9 @@ pub(super) struct FittedArcs {
     pub(super) tightened: usize,
     /// The pairs of arcs that still meet after [`TIGHTEN_ROUNDS`].
     pub(super) crossings_left: Vec<(usize, usize)>,
+    /// Decimal steps in a step of the grid every arc lies on: the rule's, or 1 when arcs fitted
+    /// on a coarser grid still met and were refitted on the decimal one.
+    pub(super) grid_multiple: u32,
 }
 
 /// What fitting one arc of a coverage needs: the arcs, where they came from, and the job.
@@ -118,24 +121,42 @@ fn tighten(
         Some(fitting.job.output.precision),
     );
     let pairs = arc_pairs(graph, &groups, &input, 2.0 * tolerance.tol_rad);
+    let run = |fitted: &mut Vec<FittedArc>, grid_multiple: u32| {
+        validity::tighten(
+            &input,
+            &pairs,
+            tolerance.tolerance_m,
+            TIGHTEN_ROUNDS,
+            fitted,
+            |f: &FittedArc| f.dense.as_slice(),
+            |a, t| {
+                let rule =
+                    ToleranceRule::new(t, tolerance.precision).with_grid_multiple(grid_multiple);
+                let f = fitting.fit(a, rule)?;
+                Ok::<_, EarthError>(Some(FittedArc {
+                    tolerance_met: tolerance_met_by(&f, &tolerance),
+                    ..f
+                }))
+            },
+        )
+    };
     let Tightened {
-        tolerance_m,
-        left: crossings_left,
-    } = validity::tighten(
-        &input,
-        &pairs,
-        tolerance.tolerance_m,
-        TIGHTEN_ROUNDS,
-        &mut fitted,
-        |f: &FittedArc| f.dense.as_slice(),
-        |a, t| {
-            let f = fitting.fit(a, ToleranceRule::new(t, tolerance.precision))?;
-            Ok::<_, EarthError>(Some(FittedArc {
-                tolerance_met: tolerance_met_by(&f, &tolerance),
-                ..f
-            }))
-        },
-    )?;
+        mut tolerance_m,
+        left: mut crossings_left,
+    } = run(&mut fitted, tolerance.grid_multiple)?;
+    let mut grid_multiple = tolerance.grid_multiple;
+    if !crossings_left.is_empty() && grid_multiple > 1 {
+        // A coarse grid can draw a small ring's own input meeting itself where the decimal
+        // grid draws it apart (10m countries at 1 km on 0.004 degrees: five islands). Every
+        // arc fitted on the coarse grid lies on the decimal one too, so only the arcs still
+        // meeting are refitted tighter on it, and the coverage is written on it.
+        grid_multiple = 1;
+        let again = run(&mut fitted, grid_multiple)?;
+        for (t, u) in tolerance_m.iter_mut().zip(again.tolerance_m) {
+            *t = t.min(u);
+        }
+        crossings_left = again.left;
+    }
     for (a, f) in fitted.iter_mut().enumerate() {
         f.tolerance_rad = m_to_rad(tolerance_m[a]);
     }
@@ -146,6 +167,7 @@ fn tighten(
             .filter(|&&t| t < tolerance.tolerance_m)
             .count(),
         crossings_left,
+        grid_multiple,
     })
 }
 

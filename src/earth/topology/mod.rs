@@ -48,7 +48,7 @@ pub const TIGHTEN_ROUNDS: usize = 5;
 use super::antimeridian;
 use super::area;
 use super::curve::{
-    compression_ratio, prepare_line, round_spline, round_up_m, sampling_start, sphere_error,
+    compression_ratio, prepare_line, round_spline_with, round_up_m, sampling_start, sphere_error,
     ToleranceRule,
 };
 use super::features::{process_feature, Document, FeatureStats, Source};
@@ -126,6 +126,9 @@ pub struct Coverage {
     pub report: Value,
     /// Counters over all features, arcs counted once for `stored_numbers`.
     pub stats: FeatureStats,
+    /// Decimal steps in a step of the grid the positions are on
+    /// ([`super::OutputOptions::grid_multiple`]).
+    pub grid_multiple: u32,
 }
 
 impl Coverage {
@@ -208,6 +211,7 @@ mod fitting;
 mod read;
 mod rebuild;
 mod report;
+mod snap;
 #[cfg(test)]
 mod tests;
 
@@ -238,14 +242,34 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     };
     let _scope = job.cancel.enter();
     let mut input = read_coverage(&doc, job)?;
+    // Features other than polygons are fitted one by one on the decimal grid: the coarser
+    // grid of a TopoJSON coverage is only taken when every feature is written on it.
+    let grid_multiple = if input.polygon_kind.iter().any(Option::is_none) {
+        1
+    } else {
+        job.output.grid_multiple
+    };
     let graph = ArcGraph::build(&input.rings);
-    let tolerance = ToleranceRule::new(*tolerance_m, job.output.precision);
+    let tolerance = ToleranceRule::new(*tolerance_m, job.output.precision)
+        .with_grid_multiple(grid_multiple)
+        .with_snap_first(true);
     let tol_rad = tolerance.tol_rad;
     let FittedArcs {
         arcs: fitted,
         tightened,
         crossings_left,
+        grid_multiple,
     } = fit_arcs(&graph, &input.sources, tolerance, options, job)?;
+    // The rings rebuilt (kept small rings, antimeridian cuts) on the grid the arcs are on.
+    let on_grid;
+    let job = if grid_multiple == job.output.grid_multiple {
+        job
+    } else {
+        let mut j = job.clone();
+        j.output.grid_multiple = grid_multiple;
+        on_grid = j;
+        &on_grid
+    };
     // Rebuild the polygon features from their rings' arcs.
     let mut by_feature: Vec<FeatureRings<'_>> = vec![Vec::new(); doc.slots.len()];
     for (ri, s) in input.sources.iter().enumerate() {
@@ -314,5 +338,6 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         feature_rings,
         report,
         stats,
+        grid_multiple: job.output.grid_multiple,
     })
 }

@@ -227,8 +227,7 @@ impl Rebuild<'_> {
                         // that.
                         let topo = job.format == OutputFormat::TopoJson;
                         let grid_rad = if topo {
-                            (0.5 * std::f64::consts::SQRT_2 * 10f64.powi(-(precision as i32)))
-                                .to_radians()
+                            job.output.rounding_bound_rad()
                         } else {
                             0.0
                         };
@@ -243,7 +242,7 @@ impl Rebuild<'_> {
                         // TopoJSON writes it on its grid (10^-precision), GeoJSON as kept.
                         let written: Vec<[f64; 2]> = if topo {
                             ring.iter()
-                                .map(|p| [round_to(p[0], precision), round_to(p[1], precision)])
+                                .map(|p| [job.output.round_deg(p[0]), job.output.round_deg(p[1])])
                                 .collect()
                         } else {
                             ring.clone()
@@ -289,13 +288,13 @@ impl Rebuild<'_> {
                     .collect();
                 let pole = polygon_poles[fi].get(pi).copied().flatten();
                 let split =
-                    antimeridian::split_polygon_around(&rings3, &|x| round_to(x, precision), pole);
+                    antimeridian::split_polygon_around(&rings3, &|x| job.output.round_deg(x), pole);
                 for rings_ll in split {
                     let rings_ll: Vec<Vec<[f64; 2]>> = rings_ll
                         .iter()
                         .map(|r| {
                             r.iter()
-                                .map(|p| [p[0], round_to(p[1], precision)])
+                                .map(|p| [p[0], job.output.round_deg(p[1])])
                                 .collect()
                         })
                         .collect();

@@ -238,3 +238,29 @@ fn check_kept_bound(ring: &[[f64; 2]], feature: &Value, decimals: u32) {
     assert!(fit["max_error_m"].as_f64().unwrap() >= farthest_m - 0.01);
     assert_eq!(fit["tolerance_met"], json!(true));
 }
+
+#[test]
+fn a_polygon_coverage_written_as_topojson_lies_on_the_coarser_grid_within_the_tolerance() {
+    let mut doc = two_neighbours();
+    doc["features"].as_array_mut().unwrap().pop();
+    let mut j = job(1000.0);
+    j.format = OutputFormat::TopoJson;
+    j.output.precision = 3;
+    j.output.grid_multiple = 4;
+    let c = fit_coverage(Document::parse(doc, false).unwrap(), &j).unwrap();
+    assert_eq!(c.grid_multiple, 4);
+    let on_grid = |x: f64| ((x * 250.0).round() - x * 250.0).abs() < 1e-9;
+    for a in &c.arcs {
+        assert!(
+            a.dense_ll.iter().flatten().all(|&x| on_grid(x)),
+            "{:?}",
+            a.dense_ll
+        );
+        assert!(a.tolerance_met && a.two_way_rad <= m_to_rad(1000.0));
+    }
+    let t = crate::earth::topojson::to_topology(c, 3, crate::earth::Carry::Geometry);
+    assert_eq!(t["transform"]["scale"], json!([0.004, 0.004]));
+    // With a feature fitted on its own (a point), the coverage stays on the decimal grid.
+    let c = fit_coverage(Document::parse(two_neighbours(), false).unwrap(), &j).unwrap();
+    assert_eq!(c.grid_multiple, 1);
+}
