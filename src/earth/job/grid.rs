@@ -81,7 +81,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn one_kilometre_gets_three_thousandths_and_fine_tolerances_none() {
+    fn one_kilometre_gets_four_thousandths_and_fine_tolerances_none() {
         // 3 decimals round within 78.6 m; four steps (314 m) are under a third of 1 km, five
         // (393 m) are not.
         assert_eq!(topojson_grid_multiple(1000.0, 3), 4);
