@@ -34,7 +34,7 @@ pub(crate) struct ServeArgs {
     /// Time budget of one request, in seconds; past it the request gets 503 with Retry-After
     #[arg(long, env = "SPHEREFIT_TIMEOUT_S", default_value_t = ServiceConfig::default().request_timeout.as_secs_f64())]
     timeout_s: f64,
-    /// Requests doing CPU work at once [default: the number of CPUs]
+    /// Requests doing CPU work at once [default: twice the number of CPUs]
     #[arg(long, env = "SPHEREFIT_FIT_CONCURRENCY")]
     fit_concurrency: Option<usize>,
     /// Requests that may wait for a CPU slot; past that, 503 with Retry-After
