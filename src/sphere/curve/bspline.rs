@@ -458,18 +458,29 @@ pub(crate) fn control_arcs<D: Dim>(d: D, control: &PointSet) -> Vec<Arc> {
 /// Per-thread working memory for de Boor: the triangle's points, its SLERP weights and the
 /// contribution coefficients.
 pub(crate) struct Scratch {
-    /// On the stack up to a cubic on S^4 (most fits): one is made per evaluation batch.
-    tri: smallvec::SmallVec<[f64; 32]>,
+    /// The triangle's points on the stack up to [`TRI_INLINE`] values (a cubic on S^7, most
+    /// fits): one scratch is made per evaluation batch, thousands per curve when certifying.
+    tri_inline: [f64; TRI_INLINE],
+    /// The triangle's points when they do not fit inline (empty otherwise).
+    tri_heap: Vec<f64>,
     /// `weights[r][j]`: the SLERP weights that made node (r, j) of the triangle.
     weights: [[(f64, f64); MAX_DEGREE + 1]; MAX_DEGREE + 1],
     /// After a contributing evaluation in span k: `contrib[m]` = D_{k−p+m}(t), m = 0..=p.
     pub(crate) contrib: [f64; MAX_DEGREE + 1],
 }
 
+/// Triangle values a [`Scratch`] keeps on the stack.
+const TRI_INLINE: usize = 32;
+
 impl Scratch {
     pub(crate) fn new(p: usize, dim: usize) -> Scratch {
         Scratch {
-            tri: smallvec::smallvec![0.0; (p + 1) * dim],
+            tri_inline: [0.0; TRI_INLINE],
+            tri_heap: if (p + 1) * dim > TRI_INLINE {
+                vec![0.0; (p + 1) * dim]
+            } else {
+                Vec::new()
+            },
             weights: [[(0.0, 0.0); MAX_DEGREE + 1]; MAX_DEGREE + 1],
             contrib: [0.0; MAX_DEGREE + 1],
         }
@@ -575,7 +586,12 @@ impl<'a> Frame<'a> {
         debug_assert_eq!(g.get(), self.p);
         let (p, dim, u) = (g.get(), d.get(), self.knots);
         let t = t.clamp(u[p], u[self.n_ctrl]);
-        let tri = &mut scratch.tri[..(p + 1) * dim];
+        let len = (p + 1) * dim;
+        let tri = if len <= TRI_INLINE {
+            &mut scratch.tri_inline[..len]
+        } else {
+            &mut scratch.tri_heap[..len]
+        };
         // The p + 1 control points of span k are contiguous.
         tri.copy_from_slice(&self.control.as_flat()[(k - p) * dim..(k + 1) * dim]);
         debug_assert!(!CACHED || !self.arcs.is_empty());
