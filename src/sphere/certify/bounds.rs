@@ -11,6 +11,7 @@ use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{
     angle_between, dot, sinc_series, Dim, Dynamic, SERIES_ANGLE_MAX_RAD,
 };
+use smallvec::{smallvec, SmallVec};
 
 /// Added to every proven bound: the bounds hold in exact arithmetic, and the curve's own
 /// evaluation, the distances and the trigonometry each round at about 1e-16 rad; 1e-12 rad
@@ -103,14 +104,8 @@ pub(crate) fn triangle_speed_bound(
     scratch.extend_from_slice(control);
     let mut speed = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
     let d = Dynamic(dim);
-    let mut tmp = [0.0f64; 16];
-    let mut tmp_heap = Vec::new();
-    let tmp: &mut [f64] = if dim <= 16 {
-        &mut tmp[..dim]
-    } else {
-        tmp_heap.resize(dim, 0.0);
-        &mut tmp_heap
-    };
+    let mut tmp_store: SmallVec<[f64; 16]> = smallvec![0.0; dim];
+    let tmp: &mut [f64] = &mut tmp_store;
     for r in 1..=p {
         for j in (r..=p).rev() {
             let (left, right) = scratch.split_at_mut(j * dim);
@@ -195,14 +190,8 @@ fn triangle_acceleration_bound_in<D: Dim>(
     scratch.extend_from_slice(control);
     let mut speed = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
     let mut accel = [0.0f64; crate::sphere::curve::bspline::MAX_DEGREE + 2];
-    let mut tmp = [0.0f64; 16];
-    let mut tmp_heap = Vec::new();
-    let tmp: &mut [f64] = if dim <= 16 {
-        &mut tmp[..dim]
-    } else {
-        tmp_heap.resize(dim, 0.0);
-        &mut tmp_heap
-    };
+    let mut tmp_store: SmallVec<[f64; 16]> = smallvec![0.0; dim];
+    let tmp: &mut [f64] = &mut tmp_store;
     for r in 1..=p {
         for j in (r..=p).rev() {
             let (left, right) = scratch.split_at_mut(j * dim);

@@ -291,16 +291,7 @@ impl SphericalBSpline {
                 let s = crate::sphere::certify::bounds::triangle_speed_bound(
                     dim,
                     ctrl,
-                    |r, j| {
-                        let i = k - p + j;
-                        let den = u[i + p - r + 1] - u[i];
-                        let inv = if den > 0.0 { 1.0 / den } else { 0.0 };
-                        crate::sphere::certify::bounds::NodeAlpha {
-                            at_start: (a - u[i]) * inv,
-                            at_end: (b.max(a) - u[i]) * inv,
-                            slope: inv,
-                        }
-                    },
+                    span_alphas(u, k, p, (a, b.max(a))),
                     (b - a).max(0.0),
                     scratch,
                 );
@@ -338,20 +329,31 @@ impl SphericalBSpline {
             crate::sphere::certify::bounds::triangle_acceleration_bound(
                 dim,
                 ctrl,
-                |r, j| {
-                    let i = k - p + j;
-                    let den = u[i + p - r + 1] - u[i];
-                    let inv = if den > 0.0 { 1.0 / den } else { 0.0 };
-                    crate::sphere::certify::bounds::NodeAlpha {
-                        at_start: (a - u[i]) * inv,
-                        at_end: (b - u[i]) * inv,
-                        slope: inv,
-                    }
-                },
+                span_alphas(u, k, p, (a, b)),
                 b - a,
                 scratch,
             )
         })
+    }
+}
+
+/// The alphas of the de Boor triangle of span `k` over `t in [a, b]`, as the SLERP-triangle
+/// bounds of [`crate::sphere::certify::bounds`] take them.
+fn span_alphas(
+    u: &[f64],
+    k: usize,
+    p: usize,
+    (a, b): (f64, f64),
+) -> impl Fn(usize, usize) -> crate::sphere::certify::bounds::NodeAlpha + '_ {
+    move |r, j| {
+        let i = k - p + j;
+        let den = u[i + p - r + 1] - u[i];
+        let inv = if den > 0.0 { 1.0 / den } else { 0.0 };
+        crate::sphere::certify::bounds::NodeAlpha {
+            at_start: (a - u[i]) * inv,
+            at_end: (b - u[i]) * inv,
+            slope: inv,
+        }
     }
 }
 
