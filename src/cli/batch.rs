@@ -255,25 +255,23 @@ fn run(command: &'static str, job: Job, batch: BatchArgs) -> Result<(), Failure>
         }
         None => {}
     }
-    if totals.corrupt > 0 {
-        // Corrupt input (a compact curve that does not decode) is not a fit that failed.
-        return Err(Failure {
-            status: 2,
-            message: format!(
-                "{} of {} features failed (reported above), {} of them with a compact curve that does not decode (corrupt input); the others were written",
-                totals.failed,
-                totals.failed + totals.features,
-                totals.corrupt
-            ),
-        });
-    }
     if totals.failed > 0 {
+        // Corrupt input (a compact curve that does not decode) is not a fit that failed: exit 2.
+        let total = totals.failed + totals.features;
+        let (status, corrupt) = if totals.corrupt > 0 {
+            let n = totals.corrupt;
+            (
+                2,
+                format!(", {n} of them with a compact curve that does not decode (corrupt input)"),
+            )
+        } else {
+            (1, String::new())
+        };
         return Err(Failure {
-            status: 1,
+            status,
             message: format!(
-                "{} of {} features failed (reported above); the others were written",
-                totals.failed,
-                totals.failed + totals.features
+                "{} of {total} features failed (reported above){corrupt}; the others were written",
+                totals.failed
             ),
         });
     }
