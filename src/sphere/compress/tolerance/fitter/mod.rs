@@ -18,7 +18,8 @@ use crate::sphere::fit::knots::greville_control_points;
 use crate::sphere::geometry::point::{angle, Dim, PointSet};
 use crate::sphere::linalg::banded::{BandCholesky, SymmetricBand};
 
-/// Gauss–Newton passes per (local) refit. The fits start close to their optimum (after a knot
+/// Gauss–Newton passes per (local) refit (a knot removal's refit takes fewer, see
+/// `removal`). The fits start close to their optimum (after a knot
 /// insertion or removal only a few control points move), and the tolerance test, not the
 /// optimum, decides.
 pub(super) const REFIT_ITERATIONS: usize = 6;

@@ -1,9 +1,17 @@
 //! Greedy knot removal with local refits and Lawson reweighting.
 
-use super::{Fitter, REFIT_ITERATIONS};
+use super::Fitter;
 use crate::sphere::curve::bspline::Degree;
 use crate::sphere::geometry::arc::{distance_key, distance_to_arc, ArcFrame};
 use crate::sphere::geometry::point::Dim;
+
+/// Gauss–Newton passes of a removal's refit (and of each reweighted refit). A removal that
+/// two passes do not make meet the tolerance is left for a later sweep or kept out: on the
+/// Natural Earth 10m land outlines (2 threads, user time, 2026-12-05) 2 passes against the 6 of
+/// other refits cut the fit's CPU by 14 % at 100 m, 30 % at 1 km and 35 % at 5 km, for
+/// +0.3 %, -0.4 % and +0.3 % stored numbers (1 pass: +1.3 % and more time at 5 km, where more
+/// pieces missed their two-way check and were refitted).
+const REMOVAL_ITERATIONS: usize = 2;
 
 /// Lawson reweighting rounds when a removal misses the tolerance by less than
 /// [`REWEIGHT_WITHIN`] times.
@@ -98,7 +106,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         undo.params.extend_from_slice(&self.params[j0..j1]);
         undo.err.clear();
         undo.err.extend_from_slice(&self.err[j0..j1]);
-        let mut max = self.refit_or_give_up(c0, c1, REFIT_ITERATIONS, target, 4.0, false);
+        let mut max = self.refit_or_give_up(c0, c1, REMOVAL_ITERATIONS, target, 4.0, false);
         if self.reweight {
             let mut round = 0;
             while max > target && max <= REWEIGHT_WITHIN * target && round < REWEIGHT_ROUNDS {
@@ -106,7 +114,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                     let r = self.err[j] / target;
                     self.weight[j] *= 1.0 + r * r * r * r;
                 }
-                max = self.refit(c0, c1, REFIT_ITERATIONS, target);
+                max = self.refit(c0, c1, REMOVAL_ITERATIONS, target);
                 round += 1;
             }
             self.weight[j0..j1].iter_mut().for_each(|w| *w = 1.0);
