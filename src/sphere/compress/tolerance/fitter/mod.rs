@@ -15,7 +15,7 @@ use crate::sphere::curve::bspline::{
     clamped_uniform_knots, Degree, Frame, Scratch, SphericalBSpline,
 };
 use crate::sphere::fit::knots::greville_control_points;
-use crate::sphere::geometry::point::{angle, Dim, PointSet};
+use crate::sphere::geometry::point::{angle, normalize, Arc, Dim, PointSet};
 use crate::sphere::linalg::banded::{BandCholesky, SymmetricBand};
 
 /// Gauss–Newton passes per (local) refit (a knot removal's refit takes fewer, see
@@ -57,6 +57,10 @@ pub(super) struct Fitter<'a, D: Dim, G: Degree> {
 struct Evaluator {
     scratch: Scratch,
     span_hint: usize,
+    /// Degree 1: the arc of the last evaluation and its two end points (`2 × dim` values).
+    /// The passes go through a span's points in order, so most evaluations reuse it.
+    arc: Option<Arc>,
+    arc_ends: Vec<f64>,
 }
 
 impl Evaluator {
@@ -64,6 +68,8 @@ impl Evaluator {
         Evaluator {
             scratch: Scratch::new(p, dim),
             span_hint: p,
+            arc: None,
+            arc_ends: vec![0.0; 2 * dim],
         }
     }
 }
@@ -97,9 +103,49 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let frame = Frame::new(self.g.get(), &self.knots, &self.ctrl);
         let k = frame.span_from(self.eval.span_hint.clamp(frame.p, frame.last_span), t);
         self.eval.span_hint = k;
+        if self.g.get() == 1 {
+            self.eval_polyline::<CONTRIB>(k, t, second);
+            return k;
+        }
         let out = if second { &mut self.c2 } else { &mut self.c };
         frame.eval::<D, G, CONTRIB, false>(self.d, self.g, k, t, &mut self.eval.scratch, out);
         k
+    }
+
+    /// [`eval_into`](Self::eval_into) for degree 1 in span `k`: de Boor's one SLERP, as
+    /// [`Frame::eval`] computes it (the same operations, so the same bits), with the arc's
+    /// set-up (its angle and the weights' constants) kept from the last evaluation when the
+    /// span's end points are the same values. It was a sixth of a polyline removal's time.
+    #[inline(always)]
+    fn eval_polyline<const CONTRIB: bool>(&mut self, k: usize, t: f64, second: bool) {
+        let (d, dim, u) = (self.d, self.d.get(), &self.knots);
+        let t = t.clamp(u[1], u[self.ctrl.len()]);
+        let a = self.ctrl.get(k - 1);
+        let b = self.ctrl.get(k);
+        let ev = &mut self.eval;
+        let arc = match ev.arc {
+            Some(arc) if ev.arc_ends[..dim] == a[..dim] && ev.arc_ends[dim..] == b[..dim] => arc,
+            _ => {
+                let arc = Arc::between(d, a, b);
+                ev.arc_ends[..dim].copy_from_slice(&a[..dim]);
+                ev.arc_ends[dim..].copy_from_slice(&b[..dim]);
+                ev.arc = Some(arc);
+                arc
+            }
+        };
+        let alpha = (t - u[k]) / (u[k + 1] - u[k]);
+        let (w0, w1) = arc.weights_unit(alpha);
+        let out = if second { &mut self.c2 } else { &mut self.c };
+        for x in 0..dim {
+            out[x] = w0 * a[x] + w1 * b[x];
+        }
+        let norm = normalize(d, out);
+        if CONTRIB {
+            let inv = 1.0 / norm;
+            let c = &mut ev.scratch.contrib;
+            c[0] = w0 * inv;
+            c[1] = inv * w1;
+        }
     }
 
     /// C(t) into `self.c`; the span.
