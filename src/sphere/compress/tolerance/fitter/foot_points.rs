@@ -103,6 +103,9 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         let last = self.last_span();
         let mut k = 1;
         let mut moved = false;
+        // The frames of the spans in use (the control points do not move during a pass): the
+        // points of a span are corrected in turn, each looking at its span and a neighbour.
+        let mut frames: [Option<(usize, ArcFrame)>; 2] = [None, None];
         for j in j0.max(1)..j1.min(n - 1) {
             let e = self.err[j];
             if e == 0.0 {
@@ -120,9 +123,16 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             let q = self.points.get(j);
             // The foot on span k's arc, as (parameter, where it fell: -1 before the arc's
             // start, 1 past its end, 0 on it, and then the point's distance to it).
-            let foot = |k: usize| -> Option<(f64, i8, f64)> {
+            let mut foot = |k: usize| -> Option<(f64, i8, f64)> {
                 let (u0, u1) = (self.knots[k], self.knots[k + 1]);
-                let arc = ArcFrame::new(d, self.ctrl.get(k - 1), self.ctrl.get(k));
+                let slot = k % 2;
+                if frames[slot].as_ref().is_none_or(|(s, _)| *s != k) {
+                    frames[slot] = Some((
+                        k,
+                        ArcFrame::new(d, self.ctrl.get(k - 1), self.ctrl.get(k)),
+                    ));
+                }
+                let arc = &frames[slot].as_ref().expect("set just above").1;
                 if arc.degenerate() || arc.is_antipodal() || u1 <= u0 {
                     return None;
                 }
