@@ -25,6 +25,19 @@ pub(super) fn search(
     for &p in degrees {
         options.cancel.check()?;
         let target = target_of(p);
+        // A degree is tried only after the one below it found a curve within the budget: a
+        // line that no quadratic stores in fewer numbers than the polyline turns corners at
+        // this scale, and a cubic rarely does better (10m land outlines, 2 threads: 19 % less
+        // CPU at 1 km and 16 % at 5 km, for 0.04 % and 0.09 % more stored numbers; none at
+        // 10 m and 100 m).
+        if p >= 3
+            && free
+            && options.degree_probe
+            && degrees.contains(&(p - 1))
+            && !found.iter().any(|(c, _)| c.spline.degree() == p - 1)
+        {
+            continue;
+        }
         if p >= 2 && free && options.degree_probe {
             // The probe reads the smallest degree-1 curve that met the target, if any.
             let polyline = found

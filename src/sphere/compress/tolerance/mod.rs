@@ -78,7 +78,8 @@
 //!   tolerances turn left, right, left at nearly every vertex; there the polyline is already
 //!   the cheapest curve, and the uniform-knot search spent half of a coastline's fitting time
 //!   proving it. Nor are they tried where Douglas–Peucker keeps four fifths of the points or
-//!   more (every point a corner at the tolerance: short island rings).
+//!   more (every point a corner at the tolerance: short island rings). Degree 3 is tried
+//!   only where degree 2 found a curve storing fewer numbers than the polyline.
 //! * The uniform-knot search stops a fit whose last pass's gain, kept up for every pass left,
 //!   would not reach the target.
 //! * The polyline fallbacks are only built when the search found nothing.

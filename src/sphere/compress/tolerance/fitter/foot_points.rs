@@ -127,10 +127,8 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                 let (u0, u1) = (self.knots[k], self.knots[k + 1]);
                 let slot = k % 2;
                 if frames[slot].as_ref().is_none_or(|(s, _)| *s != k) {
-                    frames[slot] = Some((
-                        k,
-                        ArcFrame::new(d, self.ctrl.get(k - 1), self.ctrl.get(k)),
-                    ));
+                    frames[slot] =
+                        Some((k, ArcFrame::new(d, self.ctrl.get(k - 1), self.ctrl.get(k))));
                 }
                 let arc = &frames[slot].as_ref().expect("set just above").1;
                 if arc.degenerate() || arc.is_antipodal() || u1 <= u0 {
