@@ -587,6 +587,10 @@ impl<'a> Frame<'a> {
     ) {
         debug_assert_eq!(g.get(), self.p);
         let (p, dim, u) = (g.get(), d.get(), self.knots);
+        if p == 1 && !CACHED {
+            let arc = Arc::between(d, self.control.get(k - 1), self.control.get(k));
+            return self.eval_linear::<D, CONTRIB>(d, k, t, &arc, scratch, out);
+        }
         let t = t.clamp(u[p], u[self.n_ctrl]);
         let len = (p + 1) * dim;
         let tri = if len <= TRI_INLINE {
@@ -645,6 +649,38 @@ impl<'a> Frame<'a> {
                 }
                 c[p] *= w[p].1;
             }
+        }
+    }
+
+    /// [`eval`](Self::eval) of a degree-1 curve in span `k`: one SLERP along `arc`, which
+    /// must be `Arc::between` the span's two control points. Callers that evaluate many
+    /// parameters on one span while the control points move between passes (the tolerance
+    /// fitter) keep the arc themselves, which [`Frame::cached`] cannot do for them.
+    #[inline(always)]
+    pub(crate) fn eval_linear<D: Dim, const CONTRIB: bool>(
+        &self,
+        d: D,
+        k: usize,
+        t: f64,
+        arc: &Arc,
+        scratch: &mut Scratch,
+        out: &mut [f64],
+    ) {
+        debug_assert_eq!(self.p, 1);
+        let (dim, u) = (d.get(), self.knots);
+        let t = t.clamp(u[1], u[self.n_ctrl]);
+        let (a, b) = (self.control.get(k - 1), self.control.get(k));
+        let (w0, w1) = arc.weights_unit((t - u[k]) / (u[k + 1] - u[k]));
+        let out = &mut out[..dim];
+        for x in 0..dim {
+            out[x] = w0 * a[x] + w1 * b[x];
+        }
+        let norm = normalize(d, out);
+        if CONTRIB {
+            // As the general triangle gives them: the apex's weight 1 / norm pushed down.
+            let inv = 1.0 / norm;
+            scratch.contrib[0] = w0 * inv;
+            scratch.contrib[1] = inv * w1;
         }
     }
 }

@@ -15,7 +15,7 @@ use crate::sphere::curve::bspline::{
     clamped_uniform_knots, Degree, Frame, Scratch, SphericalBSpline,
 };
 use crate::sphere::fit::knots::greville_control_points;
-use crate::sphere::geometry::point::{angle, normalize, Arc, Dim, PointSet};
+use crate::sphere::geometry::point::{angle, Arc, Dim, PointSet};
 use crate::sphere::linalg::banded::{BandCholesky, SymmetricBand};
 
 /// Gauss–Newton passes per (local) refit (a knot removal's refit takes fewer, see
@@ -72,6 +72,26 @@ impl Evaluator {
             arc_ends: vec![0.0; 2 * dim],
         }
     }
+
+    /// The arc from `a` to `b` for [`Frame::eval_linear`]: the last one while its end points
+    /// are the same values (it was a sixth of a polyline removal's time), else computed and
+    /// kept.
+    #[inline(always)]
+    fn arc_of<D: Dim>(&mut self, d: D, a: &[f64], b: &[f64]) -> Arc {
+        let dim = d.get();
+        match self.arc {
+            Some(arc) if self.arc_ends[..dim] == a[..dim] && self.arc_ends[dim..] == b[..dim] => {
+                arc
+            }
+            _ => {
+                let arc = Arc::between(d, a, b);
+                self.arc_ends[..dim].copy_from_slice(&a[..dim]);
+                self.arc_ends[dim..].copy_from_slice(&b[..dim]);
+                self.arc = Some(arc);
+                arc
+            }
+        }
+    }
 }
 
 /// The window a knot removal changes, saved before its refit ([`Fitter::try_remove`]).
@@ -103,49 +123,16 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let frame = Frame::new(self.g.get(), &self.knots, &self.ctrl);
         let k = frame.span_from(self.eval.span_hint.clamp(frame.p, frame.last_span), t);
         self.eval.span_hint = k;
+        let out = if second { &mut self.c2 } else { &mut self.c };
         if self.g.get() == 1 {
-            self.eval_polyline::<CONTRIB>(k, t, second);
+            let arc = self
+                .eval
+                .arc_of(self.d, self.ctrl.get(k - 1), self.ctrl.get(k));
+            frame.eval_linear::<D, CONTRIB>(self.d, k, t, &arc, &mut self.eval.scratch, out);
             return k;
         }
-        let out = if second { &mut self.c2 } else { &mut self.c };
         frame.eval::<D, G, CONTRIB, false>(self.d, self.g, k, t, &mut self.eval.scratch, out);
         k
-    }
-
-    /// [`eval_into`](Self::eval_into) for degree 1 in span `k`: de Boor's one SLERP, as
-    /// [`Frame::eval`] computes it (the same operations, so the same bits), with the arc's
-    /// set-up (its angle and the weights' constants) kept from the last evaluation when the
-    /// span's end points are the same values. It was a sixth of a polyline removal's time.
-    #[inline(always)]
-    fn eval_polyline<const CONTRIB: bool>(&mut self, k: usize, t: f64, second: bool) {
-        let (d, dim, u) = (self.d, self.d.get(), &self.knots);
-        let t = t.clamp(u[1], u[self.ctrl.len()]);
-        let a = self.ctrl.get(k - 1);
-        let b = self.ctrl.get(k);
-        let ev = &mut self.eval;
-        let arc = match ev.arc {
-            Some(arc) if ev.arc_ends[..dim] == a[..dim] && ev.arc_ends[dim..] == b[..dim] => arc,
-            _ => {
-                let arc = Arc::between(d, a, b);
-                ev.arc_ends[..dim].copy_from_slice(&a[..dim]);
-                ev.arc_ends[dim..].copy_from_slice(&b[..dim]);
-                ev.arc = Some(arc);
-                arc
-            }
-        };
-        let alpha = (t - u[k]) / (u[k + 1] - u[k]);
-        let (w0, w1) = arc.weights_unit(alpha);
-        let out = if second { &mut self.c2 } else { &mut self.c };
-        for x in 0..dim {
-            out[x] = w0 * a[x] + w1 * b[x];
-        }
-        let norm = normalize(d, out);
-        if CONTRIB {
-            let inv = 1.0 / norm;
-            let c = &mut ev.scratch.contrib;
-            c[0] = w0 * inv;
-            c[1] = inv * w1;
-        }
     }
 
     /// C(t) into `self.c`; the span.
