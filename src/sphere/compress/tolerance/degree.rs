@@ -228,6 +228,12 @@ fn fit_degree<D: Dim, G: Degree>(
     out
 }
 
+/// Newton steps per point of the foot-point correction before a uniform-knot fit: the refit
+/// corrects them again after each pass. On the small rings (under 512 points) of the 10m land
+/// outlines 2 steps instead of 4 took 2.4 % fewer instructions at 1 km and 1.8 % at 5 km, the
+/// stored numbers unchanged at 1 km and 8 fewer at 5 km.
+const UNIFORM_FOOT_STEPS: usize = 2;
+
 /// Uniform knots, no knot stored: the fewest control points, by bisection between p + 1 and
 /// `most`, whose fit with corrected parameters meets the target.
 fn uniform_search<D: Dim, G: Degree>(
@@ -239,7 +245,14 @@ fn uniform_search<D: Dim, G: Degree>(
     pin_ends: bool,
 ) -> Option<Curve> {
     let p = g.get();
-    if most < p + 1 {
+    // A ring's curve starts and ends at its seam: with three control points the third is the
+    // first again, and the curve runs out along one great circle and back, never round a ring
+    // (on the 10m land outlines at 5 km, 1,159 triangles were tried so, a tenth of the small
+    // rings' instructions, and none won).
+    let n = line.points.len();
+    let closed = n > 2 && line.points.get(0) == line.points.get(n - 1);
+    let fewest = if closed { (p + 1).max(4) } else { p + 1 };
+    if most < fewest {
         return None;
     }
     let try_count = |n_ctrl: usize| -> Option<Fitter<D, G>> {
@@ -248,12 +261,12 @@ fn uniform_search<D: Dim, G: Degree>(
         if pin_ends {
             f.pin_ends();
         }
-        f.correct_all(4);
+        f.correct_all(UNIFORM_FOOT_STEPS);
         f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0, true);
         Some(f)
     };
     let hi_limit = most;
-    let mut lo = p + 1;
+    let mut lo = fewest;
     let mut hi = hi_limit;
     // Is the top of the range feasible at all?
     let top = try_count(hi)?;
@@ -272,4 +285,55 @@ fn uniform_search<D: Dim, G: Degree>(
         }
     }
     best.and_then(|f| f.into_curve(KnotRule::Uniform))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sphere::curve::bspline::Deg;
+    use crate::sphere::fit::knots::{parameters, Parameterization};
+    use crate::sphere::geometry::point::Fixed;
+
+    /// A closed ring of `n` points on an ellipse (semi-axes `a`, `b` radians) round (1, 0, 0).
+    fn ellipse(n: usize, a: f64, b: f64) -> PointSet {
+        let rows: Vec<[f64; 3]> = (0..=n)
+            .map(|i| {
+                let s = std::f64::consts::TAU * (i % n) as f64 / n as f64;
+                let (y, z) = (a * s.cos(), b * s.sin());
+                let norm = (1.0 + y * y + z * z).sqrt();
+                [1.0 / norm, y / norm, z / norm]
+            })
+            .collect();
+        PointSet::try_from_rows(&rows).unwrap()
+    }
+
+    fn search_ring(points: &PointSet, target: f64, most: usize) -> Option<Curve> {
+        let params = parameters(points, Parameterization::Chord).unwrap();
+        let line = Line {
+            points,
+            params: &params,
+            free: true,
+        };
+        uniform_search(Fixed::<3>, Deg::<2>, line, target, most, false)
+    }
+
+    #[test]
+    fn a_ring_is_never_searched_with_three_control_points() {
+        // A "ring" out along a great circle and back: a quadratic through three control
+        // points, the third the first again, runs out and back along one great circle and
+        // could stand for it, but bounds no area (and never beat the polyline on real rings),
+        // so it is not tried.
+        let rows: Vec<[f64; 3]> = (0..=24)
+            .map(|i| {
+                let a = 0.02 * (12 - (12i32 - i).abs()) as f64 / 12.0;
+                [a.cos(), a.sin(), 0.0]
+            })
+            .collect();
+        let sliver = PointSet::try_from_rows(&rows).unwrap();
+        assert!(search_ring(&sliver, 5e-3, 3).is_none());
+        // With four control points a ring is tried, and an ellipse is met.
+        let oval = ellipse(24, 0.02, 0.01);
+        let c = search_ring(&oval, 4e-3, 4).expect("four control points round an ellipse");
+        assert_eq!(c.spline.control_points().len(), 4);
+    }
 }

@@ -123,43 +123,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             let q = self.points.get(j);
             // The foot on span k's arc, as (parameter, where it fell: -1 before the arc's
             // start, 1 past its end, 0 on it, and then the point's distance to it).
-            let mut foot = |k: usize| -> Option<(f64, i8, f64)> {
-                let (u0, u1) = (self.knots[k], self.knots[k + 1]);
-                let slot = k % 2;
-                if frames[slot].as_ref().is_none_or(|(s, _)| *s != k) {
-                    frames[slot] =
-                        Some((k, ArcFrame::new(d, self.ctrl.get(k - 1), self.ctrl.get(k))));
-                }
-                let arc = &frames[slot].as_ref().expect("set just above").1;
-                if arc.degenerate() || arc.is_antipodal() || u1 <= u0 {
-                    return None;
-                }
-                let (x, y) = (dot(d, q, &arc.e1), dot(d, q, &arc.e2));
-                // The along-track angle atan2(y, x), by its sine where it is small (a point
-                // near a short arc), without libm's atan2.
-                let r = (x * x + y * y).sqrt();
-                let phi = if x > 0.0 && y.abs() <= 0.1 * r {
-                    angle_from_sine(y.abs() / r).copysign(y)
-                } else {
-                    y.atan2(x)
-                };
-                let alpha = phi / arc.theta;
-                if alpha < 0.0 {
-                    return Some((u0, -1, f64::NAN));
-                }
-                if alpha > 1.0 {
-                    return Some((u1, 1, f64::NAN));
-                }
-                // The curve point at the foot is q's projection on the arc's great circle:
-                // the error there is the cross-track distance, asin |q - x e1 - y e2|.
-                let mut perp_sq = 0.0;
-                for c in 0..d.get() {
-                    let r = q[c] - x * arc.e1[c] - y * arc.e2[c];
-                    perp_sq += r * r;
-                }
-                let dist = angle_from_sine(perp_sq.sqrt());
-                Some((u0 + alpha * (u1 - u0), 0, dist))
-            };
+            let mut foot = |k: usize| foot_on_span(self, &mut frames, d, k, q);
             let Some(mut best) = foot(k) else {
                 continue;
             };
@@ -193,7 +157,196 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         moved
     }
 
+    /// For a polyline after its control points moved (a refit's step): each point of
+    /// `j0 .. j1` measured and moved to its foot point in one pass, instead of measured at its
+    /// old parameter and then corrected ([`correct_range`](Self::correct_range)). A foot on the
+    /// arc of the span the parameter is in is the nearest point of that span, so it is taken
+    /// with its distance and the curve is not evaluated at the old parameter; a foot held back
+    /// by a neighbour's parameter or on another span is kept only where it is nearer than the
+    /// old parameter's point, as in [`correct_range`](Self::correct_range). Returns the max
+    /// error and the weighted sum of squares, as [`measure_range`](Self::measure_range) does.
+    pub(super) fn project_range_polyline(&mut self, j0: usize, j1: usize) -> (f64, f64) {
+        let n = self.points.len();
+        let d = self.d;
+        let last = self.last_span();
+        let mut k = 1;
+        let (mut max, mut sq): (f64, f64) = (0.0, 0.0);
+        let mut frames: [Option<(usize, ArcFrame)>; 2] = [None, None];
+        for j in j0..j1 {
+            let t = self.params[j];
+            let mut e = None;
+            if j > 0 && j + 1 < n {
+                let (lo, hi) = (self.params[j - 1], self.params[j + 1]);
+                if !(self.knots[k] <= t && (t < self.knots[k + 1] || k == last)) {
+                    k = self
+                        .knots
+                        .partition_point(|&u| u <= t)
+                        .saturating_sub(1)
+                        .clamp(1, last);
+                }
+                let q = self.points.get(j);
+                let mut foot = |k: usize| foot_on_span(self, &mut frames, d, k, q);
+                if let Some(mut best) = foot(k) {
+                    let mut same_span = true;
+                    let next = match best.1 {
+                        1 if k < last => foot(k + 1),
+                        -1 if k > 1 => foot(k - 1),
+                        _ => None,
+                    };
+                    if let Some(f @ (_, 0, _)) = next {
+                        best = f;
+                        same_span = false;
+                    }
+                    let (tn, side, dist) = best;
+                    let clamped = tn.clamp(lo, hi);
+                    let on_arc = side == 0 && clamped == tn && dist < 0.1;
+                    if on_arc && same_span {
+                        self.params[j] = tn;
+                        e = Some(dist);
+                    } else {
+                        let e_old = self.error_at(j, t);
+                        let mut chosen = e_old;
+                        if clamped != t {
+                            let en = if on_arc {
+                                dist
+                            } else {
+                                self.error_at(j, clamped)
+                            };
+                            if en < e_old {
+                                self.params[j] = clamped;
+                                chosen = en;
+                            }
+                        }
+                        e = Some(chosen);
+                    }
+                }
+            }
+            let e = match e {
+                Some(e) => e,
+                None => self.error_at(j, t),
+            };
+            self.err[j] = e;
+            max = max.max(e);
+            sq += self.weight[j] * e * e;
+        }
+        (max, sq)
+    }
+
     pub(in crate::sphere::compress::tolerance) fn correct_all(&mut self, steps: usize) {
         self.correct_range(0, self.points.len(), steps);
+    }
+}
+
+/// The foot of `q` on the arc of span `k` of a polyline fitter, as (parameter, where it fell:
+/// -1 before the arc's start, 1 past its end, 0 on it, and then `q`'s distance to it); `None`
+/// for a degenerate or antipodal arc. `frames` keeps the arcs of the two spans last used.
+fn foot_on_span<D: Dim, G: Degree>(
+    f: &Fitter<'_, D, G>,
+    frames: &mut [Option<(usize, ArcFrame)>; 2],
+    d: D,
+    k: usize,
+    q: &[f64],
+) -> Option<(f64, i8, f64)> {
+    let (u0, u1) = (f.knots[k], f.knots[k + 1]);
+    let slot = k % 2;
+    if frames[slot].as_ref().is_none_or(|(s, _)| *s != k) {
+        frames[slot] = Some((k, ArcFrame::new(d, f.ctrl.get(k - 1), f.ctrl.get(k))));
+    }
+    let arc = &frames[slot].as_ref().expect("set just above").1;
+    if arc.degenerate() || arc.is_antipodal() || u1 <= u0 {
+        return None;
+    }
+    let (x, y) = (dot(d, q, &arc.e1), dot(d, q, &arc.e2));
+    // The along-track angle atan2(y, x), by its sine where it is small (a point near a short
+    // arc), without libm's atan2.
+    let r = (x * x + y * y).sqrt();
+    let phi = if x > 0.0 && y.abs() <= 0.1 * r {
+        angle_from_sine(y.abs() / r).copysign(y)
+    } else {
+        y.atan2(x)
+    };
+    let alpha = phi / arc.theta;
+    if alpha < 0.0 {
+        return Some((u0, -1, f64::NAN));
+    }
+    if alpha > 1.0 {
+        return Some((u1, 1, f64::NAN));
+    }
+    // The curve point at the foot is q's projection on the arc's great circle: the error
+    // there is the cross-track distance, asin |q - x e1 - y e2|.
+    let mut perp_sq = 0.0;
+    for c in 0..d.get() {
+        let r = q[c] - x * arc.e1[c] - y * arc.e2[c];
+        perp_sq += r * r;
+    }
+    let dist = angle_from_sine(perp_sq.sqrt());
+    Some((u0 + alpha * (u1 - u0), 0, dist))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sphere::curve::bspline::Deg;
+    use crate::sphere::geometry::point::{Fixed, PointSet};
+
+    /// A wavy line of 40 points and the polyline through 4 of them, its second vertex then
+    /// moved off the line (as a refit's step moves it).
+    fn moved_polyline(points: &PointSet) -> Fitter<'_, Fixed<3>, Deg<1>> {
+        let n = points.len();
+        let params: Vec<f64> = (0..n).map(|j| j as f64 / (n - 1) as f64).collect();
+        let kept = [0, 13, 26, n - 1];
+        let knots = vec![0.0, 0.0, params[13], params[26], 1.0, 1.0];
+        let ctrl = points.subset(&kept);
+        let mut f = Fitter::new(Fixed::<3>, Deg::<1>, points, true, params, knots, ctrl);
+        let v = f.ctrl.get_mut(1);
+        v[2] += 2e-3;
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        v.iter_mut().for_each(|x| *x /= norm);
+        f
+    }
+
+    fn wavy_line() -> PointSet {
+        let rows: Vec<[f64; 3]> = (0..40)
+            .map(|i| {
+                let a = i as f64 * 0.003;
+                let lat = 0.004 * (9.0 * a).sin();
+                [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
+            })
+            .collect();
+        PointSet::try_from_rows(&rows).unwrap()
+    }
+
+    #[test]
+    fn one_projection_pass_measures_at_foot_points_no_farther_than_measure_then_correct() {
+        let points = wavy_line();
+        let n = points.len();
+        // Measured at the old parameters, then corrected (the two passes it replaces).
+        let mut two = moved_polyline(&points);
+        two.measure_range(0, n);
+        two.correct_range(0, n, 1);
+        // One pass.
+        let mut one = moved_polyline(&points);
+        let old = one.params.clone();
+        let (max, sq) = one.project_range_polyline(0, n);
+        assert!(one.params.windows(2).all(|w| w[0] <= w[1]));
+        let mut moved = 0;
+        for j in 0..n {
+            // Its errors are the curve's distances at its parameters ...
+            let e = one.err[j];
+            let at = one.error_at(j, one.params[j]);
+            assert!((e - at).abs() < 1e-12, "point {j}: {e} vs {at}");
+            // ... never farther than at the old parameter, nor than measure-then-correct.
+            assert!(e <= one.error_at(j, old[j]) + 1e-15, "point {j}");
+            assert!(e <= two.err[j] + 1e-12, "point {j}: {e} vs {}", two.err[j]);
+            moved += usize::from(one.params[j] != old[j]);
+        }
+        assert!(
+            moved > n / 2,
+            "only {moved} of {n} moved to their foot points"
+        );
+        let max_err = one.err.iter().fold(0.0f64, |a, &b| a.max(b));
+        let sum_sq: f64 = one.err.iter().map(|e| e * e).sum();
+        assert_eq!(max, max_err);
+        assert!((sq - sum_sq).abs() <= 1e-15 * sum_sq.max(1e-300));
     }
 }

@@ -111,6 +111,8 @@ struct RefitBuffers {
     rhs: Vec<f64>,
     step: Vec<f64>,
     saved: Vec<f64>,
+    /// The window's parameters before a polyline step (which moves them to foot points).
+    saved_params: Vec<f64>,
 }
 
 impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {

@@ -59,6 +59,9 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         let mut buffers = std::mem::take(&mut self.buffers);
         buffers.saved.resize(nf * dim, 0.0);
         let mut before = f64::INFINITY;
+        // A polyline's step is measured at the foot points it moves the parameters to (one
+        // pass, see `project_range_polyline`), and kept when that lowers the loss.
+        let fused = self.free && p == 1;
         for it in 0..iterations {
             let stalled = stall
                 && it >= GIVE_UP_AFTER
@@ -77,7 +80,12 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                 rhs,
                 step,
                 saved,
+                saved_params,
             } = &mut buffers;
+            if fused {
+                saved_params.clear();
+                saved_params.extend_from_slice(&self.params[j0..j1]);
+            }
             band.reset(nf, p);
             rhs.clear();
             rhs.resize(nf * dim, 0.0);
@@ -129,13 +137,20 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                         &step[i * dim..(i + 1) * dim],
                     );
                 }
-                let (nmax, nloss) = self.measure_range(j0, j1);
+                let (nmax, nloss) = if fused {
+                    self.project_range_polyline(j0, j1)
+                } else {
+                    self.measure_range(j0, j1)
+                };
                 if nloss < loss {
                     lambda = if lambda < 1e-9 { 0.0 } else { lambda / 10.0 };
                     accepted = Some((nmax, nloss));
                     break;
                 }
                 self.restore(c0, saved);
+                if fused {
+                    self.params[j0..j1].copy_from_slice(saved_params);
+                }
                 lambda = if lambda == 0.0 { 1e-4 } else { lambda * 10.0 };
             }
             let Some((nmax, nloss)) = accepted else {
@@ -145,7 +160,8 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             let gain = loss - nloss;
             max = nmax;
             loss = nloss;
-            if self.free {
+            // (A polyline's step was measured at its foot points already.)
+            if self.free && !fused {
                 self.correct_range(j0, j1, FOOT_POINT_STEPS);
                 let (m, l) = (
                     self.err[j0..j1].iter().fold(0.0, |a: f64, &b| a.max(b)),
@@ -155,7 +171,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
                 );
                 max = m;
                 loss = l;
-            } else if gain <= 1e-6 * loss {
+            } else if !self.free && gain <= 1e-6 * loss {
                 break;
             }
         }
