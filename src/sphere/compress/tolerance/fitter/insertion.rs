@@ -13,6 +13,9 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// cap is reached or nothing can be inserted.
     pub(in crate::sphere::compress::tolerance) fn refine(&mut self, target: f64, cap: usize) {
         let mut best: Option<Snapshot> = None;
+        if self.p() == 1 {
+            self.refit_spans_over(target);
+        }
         loop {
             let n = self.n_ctrl();
             let max = self.refit(0, n, REFIT_ITERATIONS, target);
@@ -82,6 +85,35 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         }
     }
 
+    /// For a polyline, refits the control points around each span holding a point over
+    /// `target` (the span's two and one more on each side), one window after another, before
+    /// any refit of the whole curve. A Douglas–Peucker seed misses its target at a few points
+    /// of a few long pieces (45 pieces of the 10m land outlines at 5 km, of 113,315 points
+    /// together), and the whole-piece Gauss–Newton refit that fixed them moved every vertex:
+    /// 5.0 % of the instructions at 5 km, and the local refits store 0.45 % fewer numbers
+    /// (77,698 against 78,050); unchanged at 10 m, 100 m and 1 km.
+    fn refit_spans_over(&mut self, target: f64) {
+        let last = self.last_span();
+        let p = self.p();
+        let mut spans: Vec<usize> = Vec::new();
+        for j in 0..self.points.len() {
+            if self.err[j] <= target {
+                continue;
+            }
+            let t = self.params[j];
+            let k = (self.knots.partition_point(|&u| u <= t).saturating_sub(1)).clamp(p, last);
+            if spans.last() != Some(&k) {
+                spans.push(k);
+            }
+        }
+        let n = self.n_ctrl();
+        for k in spans {
+            // Span k runs between control points k - 1 and k (degree 1).
+            let (c0, c1) = ((k - 1).saturating_sub(1), (k + 2).min(n));
+            self.refit(c0, c1, REFIT_ITERATIONS, target);
+        }
+    }
+
     /// Boehm's knot insertion with SLERP in place of the affine combinations: `u` in span k.
     fn insert_knot(&mut self, k: usize, u: f64) {
         let (p, dim) = (self.p(), self.d.get());
@@ -105,5 +137,55 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         coords.extend_from_slice(&old[k * dim..]);
         self.ctrl = PointSet::from_flat_unchecked(dim, coords);
         self.knots.insert(k + 1, u);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::sphere::compress::tolerance::fitter::Fitter;
+    use crate::sphere::curve::bspline::Deg;
+    use crate::sphere::geometry::point::{Fixed, PointSet};
+
+    #[test]
+    fn a_polyline_missing_its_target_in_one_span_is_refitted_there_only() {
+        // 80 points along a gentle wave, and the polyline through every tenth one with its
+        // fifth vertex pushed off the line: only the spans next to it miss the target.
+        let rows: Vec<[f64; 3]> = (0..81)
+            .map(|i| {
+                let a = i as f64 * 0.002;
+                let lat = 0.003 * (5.0 * a).sin();
+                [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
+            })
+            .collect();
+        let points = PointSet::try_from_rows(&rows).unwrap();
+        let kept: Vec<usize> = (0..=8).map(|i| 10 * i).collect();
+        let params: Vec<f64> = (0..81).map(|j| j as f64 / 80.0).collect();
+        let mut knots = vec![0.0];
+        knots.extend(kept.iter().map(|&i| params[i]));
+        knots.push(1.0);
+        let mut f = Fitter::new(
+            Fixed::<3>,
+            Deg::<1>,
+            &points,
+            true,
+            params,
+            knots,
+            points.subset(&kept),
+        );
+        f.correct_all(4);
+        let target = 2.0 * f.max_error().max(1e-7);
+        let v = f.ctrl.get_mut(4);
+        v[2] += 5.0 * target;
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        v.iter_mut().for_each(|x| *x /= norm);
+        f.measure_range(0, points.len());
+        assert!(f.max_error() > target);
+        let before = f.ctrl.clone();
+        f.refit_spans_over(target);
+        assert!(f.max_error() <= target, "{} > {target}", f.max_error());
+        // Only the windows round vertex 4's two spans moved (control points 2 to 6).
+        for i in (0..2).chain(7..9) {
+            assert_eq!(f.ctrl.get(i), before.get(i), "control point {i} moved");
+        }
     }
 }
