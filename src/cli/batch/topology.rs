@@ -80,7 +80,7 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
     };
     phases.lap("read input");
     let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
-    let value: serde_json::Value = serde_json::from_slice(text)
+    let value = crate::earth::features::parse_json(text)
         .map_err(|e| Failure::input(format!("{name}: not a GeoJSON document: {e}")))?;
     phases.lap("parse JSON");
     let fail = |e: crate::earth::EarthError| Failure {
@@ -90,7 +90,7 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
     let doc = Document::parse(value, false).map_err(fail)?;
     phases.lap("document");
     let coverage = fit_coverage(doc, &job).map_err(fail)?;
-    phases.lap_with(&coverage.phases, "free input");
+    phases.lap_with(&coverage.phases, "(rest of the fit)");
     let report = coverage.report.clone();
     let text = match format {
         OutputFormat::TopoJson => crate::earth::topojson::to_bytes(
