@@ -300,14 +300,20 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     };
     let mut feature_rings: Vec<Option<PolygonArcs>> = vec![None; doc.slots.len()];
     let mut totals = Totals::new();
-    for (fi, slot) in doc.slots.iter().enumerate() {
-        let Some(kind) = input.polygon_kind[fi] else {
-            continue;
-        };
-        let Source::Feature { feature, .. } = &slot.source else {
-            continue;
-        };
-        let mut rebuilt = rebuild.feature(fi, kind, feature, &by_feature[fi]);
+    // Each polygon feature rebuilt on its own (in parallel), then counted in order.
+    let rebuilt: Vec<(usize, RebuiltFeature)> = doc
+        .slots
+        .par_iter()
+        .enumerate()
+        .filter_map(|(fi, slot)| {
+            let kind = input.polygon_kind[fi]?;
+            let Source::Feature { feature, .. } = &slot.source else {
+                return None;
+            };
+            Some((fi, rebuild.feature(fi, kind, feature, &by_feature[fi])))
+        })
+        .collect();
+    for (fi, mut rebuilt) in rebuilt {
         totals.add(&rebuilt);
         if job.carry == crate::earth::Carry::Geometry {
             if let Some(fit) = rebuilt.feature.pointer_mut("/properties/fit") {
@@ -337,12 +343,17 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         },
     );
     phases.lap("report");
+    // The input, read and rebuilt, freed on every thread (it was parsed on every thread).
+    let Document { members, slots } = doc;
+    slots.into_par_iter().for_each(drop);
+    drop(input);
+    phases.lap("free input");
     Ok(Coverage {
         features: features
             .into_iter()
             .map(|f| f.expect("every slot processed"))
             .collect(),
-        members: doc.members,
+        members,
         graph,
         arcs: fitted,
         feature_rings,
