@@ -4,7 +4,7 @@
 use super::input::Format;
 use super::{stderr_line, BatchArgs};
 use crate::cli::Failure;
-use crate::earth::topology::{fit_coverage, OutputFormat, Topology};
+use crate::earth::topology::{fit_coverage, OutputFormat, Phases, Topology};
 use crate::earth::{Document, Job};
 use clap::{Args, ValueEnum};
 use std::io::{self, Read, Write};
@@ -47,6 +47,7 @@ pub(super) fn check_input_format(batch: &BatchArgs) -> Result<(), Failure> {
 /// Runs the coverage fit of `job` (whose topology is shared).
 pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
     let started = Instant::now();
+    let mut phases = Phases::new();
     check_input_format(batch)?;
     if matches!(batch.output_format, Format::Seq | Format::Lines) {
         let name = batch
@@ -77,15 +78,19 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
             ("stdin".to_string(), b)
         }
     };
+    phases.lap("read input");
     let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
-    let value: serde_json::Value = serde_json::from_slice(text)
+    let value = crate::earth::features::parse_json(text)
         .map_err(|e| Failure::input(format!("{name}: not a GeoJSON document: {e}")))?;
+    phases.lap("parse JSON");
     let fail = |e: crate::earth::EarthError| Failure {
         status: 1,
         message: format!("{name}: {e}"),
     };
     let doc = Document::parse(value, false).map_err(fail)?;
+    phases.lap("document");
     let coverage = fit_coverage(doc, &job).map_err(fail)?;
+    phases.lap_with(&coverage.phases, "(rest of the fit)");
     let report = coverage.report.clone();
     let text = match format {
         OutputFormat::TopoJson => crate::earth::topojson::to_bytes(
@@ -94,6 +99,7 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
         OutputFormat::GeoJson => serde_json::to_vec(&coverage.into_feature_collection(job.carry))
             .map_err(|e| Failure::input(e.to_string()))?,
     };
+    phases.lap("assemble output");
     let out_path = batch.output.as_ref().filter(|p| p.as_os_str() != "-");
     let written = match out_path {
         Some(p) => std::fs::write(p, [&text[..], b"\n"].concat())
@@ -105,6 +111,7 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
                 .map_err(|e| format!("stdout: cannot write: {e}"))
         }
     };
+    phases.lap("write output");
     written.map_err(Failure::input)?;
     let seconds = started.elapsed().as_secs_f64();
     if !batch.quiet {
@@ -123,6 +130,7 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
     if let Some(p) = &batch.stats {
         let mut r = report;
         r["seconds"] = serde_json::json!(seconds);
+        r["phases"] = phases.to_json();
         let line = r.to_string();
         if p.as_os_str() == "-" {
             stderr_line(&line);

@@ -31,6 +31,7 @@ mod rings;
 use self::rings::{ArcIndex, Cell, Piece};
 use super::job::Carry;
 use super::topology::Coverage;
+use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
 /// The name of the one object of the topology.
@@ -135,7 +136,7 @@ fn compact_spline(a: &super::topology::FittedArc, q: &Quantisation) -> Option<Va
 /// The TopoJSON topology of a fitted coverage, quantised at `precision` decimals (times its
 /// grid multiple, [`Coverage::grid_multiple`]), with the
 /// compact splines unless `carry` is [`Carry::Geometry`].
-pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
+pub fn to_topology(mut c: Coverage, precision: u32, carry: Carry) -> Value {
     let q = Quantisation::of_grid(precision, c.grid_multiple);
     let cells: Vec<Vec<Cell>> = c
         .arcs
@@ -143,48 +144,32 @@ pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
         .map(|a| a.dense_ll.iter().map(|p| q.index(p[0], p[1])).collect())
         .collect();
     let index = ArcIndex::new(&cells);
-    // Arcs of their own, after the coverage's (index `coverage + i`).
+    // Arcs of their own, after the coverage's (index `coverage + i`): each feature's made on
+    // its own (in parallel), numbered from `coverage`, then renumbered after the earlier ones.
     let coverage = c.arcs.len();
+    let converted: Vec<(Value, Vec<Value>)> = c
+        .features
+        .par_iter()
+        .zip(&c.feature_rings)
+        .map(|(f, rings)| {
+            let mut own: Vec<Value> = Vec::new();
+            let g = geometry_of(f, rings.as_ref(), &q, &index, coverage, &mut own);
+            (g, own)
+        })
+        .collect();
     let mut own: Vec<Value> = Vec::new();
-    let mut geometries = Vec::with_capacity(c.features.len());
-    for (f, rings) in c.features.iter().zip(&c.feature_rings) {
-        let geometry = &f["geometry"];
-        let mut g = match rings {
-            Some(polys) => {
-                let refs: Vec<Vec<Vec<i64>>> = polys
-                    .iter()
-                    .map(|p| {
-                        p.iter()
-                            .map(|r| r.iter().map(|u| u.topojson_index()).collect())
-                            .collect()
-                    })
-                    .collect();
-                if geometry["type"] == "Polygon" {
-                    json!({"type": "Polygon", "arcs": refs[0]})
-                } else {
-                    json!({"type": "MultiPolygon", "arcs": refs})
-                }
-            }
-            None => {
-                let mut writer = ArcWriter {
-                    q: &q,
-                    index: &index,
-                    first: coverage,
-                    own: &mut own,
-                };
-                convert(geometry, &mut writer)
-            }
-        };
-        if let Some(obj) = g.as_object_mut() {
-            if let Some(id) = f.get("id") {
-                obj.insert("id".into(), id.clone());
-            }
-            if let Some(p) = f.get("properties").filter(|p| !p.is_null()) {
-                obj.insert("properties".into(), p.clone());
-            }
+    let mut geometries = Vec::with_capacity(converted.len());
+    for (mut g, mine) in converted {
+        if !mine.is_empty() && !own.is_empty() {
+            shift_own_indices(&mut g, coverage as i64, own.len() as i64);
         }
+        own.extend(mine);
         geometries.push(g);
     }
+    // The features are no longer needed: freed on every thread.
+    std::mem::take(&mut c.features)
+        .into_par_iter()
+        .for_each(drop);
     // Coverage arcs no geometry uses (their rings were written with pieces of their own) are
     // left out, and the indices renumbered.
     let mut used = vec![false; coverage];
@@ -234,6 +219,76 @@ pub fn to_topology(c: Coverage, precision: u32, carry: Carry) -> Value {
     out.insert("arcs".into(), Value::Array(arcs));
     out.insert("spherefit".into(), report);
     Value::Object(out)
+}
+
+/// Feature `f`'s TopoJSON geometry, with its `id` and `properties`: the arc uses of its
+/// `rings` when it was rebuilt from the coverage's arcs, else its geometry converted with arcs
+/// of its own pushed to `own` (numbered from `first`).
+fn geometry_of(
+    f: &Value,
+    rings: Option<&super::topology::PolygonArcs>,
+    q: &Quantisation,
+    index: &ArcIndex<'_>,
+    first: usize,
+    own: &mut Vec<Value>,
+) -> Value {
+    let geometry = &f["geometry"];
+    let mut g = match rings {
+        Some(polys) => {
+            let refs: Vec<Vec<Vec<i64>>> = polys
+                .iter()
+                .map(|p| {
+                    p.iter()
+                        .map(|r| r.iter().map(|u| u.topojson_index()).collect())
+                        .collect()
+                })
+                .collect();
+            if geometry["type"] == "Polygon" {
+                json!({"type": "Polygon", "arcs": refs[0]})
+            } else {
+                json!({"type": "MultiPolygon", "arcs": refs})
+            }
+        }
+        None => {
+            let mut writer = ArcWriter {
+                q,
+                index,
+                first,
+                own,
+            };
+            convert(geometry, &mut writer)
+        }
+    };
+    if let Some(obj) = g.as_object_mut() {
+        if let Some(id) = f.get("id") {
+            obj.insert("id".into(), id.clone());
+        }
+        if let Some(p) = f.get("properties").filter(|p| !p.is_null()) {
+            obj.insert("properties".into(), p.clone());
+        }
+    }
+    g
+}
+
+/// Adds `by` to the indices of arcs of their own (from `first` on) in a TopoJSON geometry.
+fn shift_own_indices(g: &mut Value, first: i64, by: i64) {
+    fn walk(v: &mut Value, first: i64, by: i64) {
+        match v {
+            Value::Array(a) => a.iter_mut().for_each(|x| walk(x, first, by)),
+            Value::Number(n) => {
+                if let Some(k) = n.as_i64().filter(|&k| k >= first) {
+                    *v = json!(k + by);
+                }
+            }
+            _ => {}
+        }
+    }
+    if let Some(arcs) = g.get_mut("arcs") {
+        walk(arcs, first, by);
+    }
+    if let Some(Value::Array(gs)) = g.get_mut("geometries") {
+        gs.iter_mut().for_each(|x| shift_own_indices(x, first, by));
+    }
 }
 
 /// How [`convert`] makes arcs: a line is an arc of its own; a ring runs along the
@@ -346,7 +401,9 @@ fn remap_indices(g: &mut Value, renumber: &[i64]) {
 fn convert(g: &Value, writer: &mut ArcWriter<'_>) -> Value {
     let kind = g.get("type").and_then(Value::as_str).unwrap_or("");
     let c = &g["coordinates"];
-    let list = |v: &Value| v.as_array().cloned().unwrap_or_default();
+    fn list(v: &Value) -> &[Value] {
+        v.as_array().map_or(&[], Vec::as_slice)
+    }
     match kind {
         "Point" | "MultiPoint" => json!({"type": kind, "coordinates": c}),
         // A LineString's `arcs` is one list of arc indices; a MultiLineString's and a Polygon's
@@ -453,6 +510,63 @@ mod tests {
         // 7 arcs before: 1 + 2 (lines) + 1 + 3 (rings).
         assert_eq!(t["arcs"], json!([[[7]], [[8], [9]]]));
         assert_eq!(arcs.len(), 10);
+    }
+
+    #[test]
+    fn arcs_of_their_own_made_per_feature_in_parallel_are_numbered_in_feature_order() {
+        // Two squares sharing a side, and lines between and after them: each line is an arc
+        // of its own, numbered after the coverage's arcs in feature order, whatever thread
+        // wrote it.
+        let square = |x: f64| json!([[[x, 0], [x + 1.0, 0], [x + 1.0, 1], [x, 1], [x, 0]]]);
+        let line = |y: f64| json!({"type": "Feature", "properties": {"y": y}, "geometry": {"type": "LineString", "coordinates": [[0, y], [1, y + 0.5], [2, y]]}});
+        let doc = json!({"type": "FeatureCollection", "features": [
+            line(3.0),
+            {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": square(0.0)}},
+            line(5.0),
+            line(7.0),
+            {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": square(1.0)}},
+            line(9.0),
+        ]});
+        let job = crate::earth::Job {
+            operation: crate::earth::Operation::FitToTolerance {
+                options: crate::sphere::FitOptions::faithful(),
+                tolerance_m: 100.0,
+            },
+            ..crate::earth::Job::fit(crate::sphere::FitOptions::default())
+        };
+        let c = crate::earth::topology::fit_coverage(
+            crate::earth::Document::parse(doc, false).unwrap(),
+            &job,
+        )
+        .unwrap();
+        let coverage_arcs = c.arcs.len() as i64;
+        let t = to_topology(c, 6, Carry::Both);
+        let gs = t["objects"][OBJECT_NAME]["geometries"].as_array().unwrap();
+        let lines: Vec<(i64, f64)> = gs
+            .iter()
+            .filter(|g| g["type"] == "LineString")
+            .map(|g| {
+                (
+                    g["arcs"][0].as_i64().unwrap(),
+                    g["properties"]["y"].as_f64().unwrap(),
+                )
+            })
+            .collect();
+        assert_eq!(
+            lines,
+            (0..4)
+                .map(|k| (coverage_arcs + k, 3.0 + 2.0 * k as f64))
+                .collect::<Vec<_>>()
+        );
+        // Each line's arc starts at its own first position.
+        let arcs = t["arcs"].as_array().unwrap();
+        assert_eq!(arcs.len() as i64, coverage_arcs + 4);
+        for (k, y) in lines {
+            assert_eq!(
+                arcs[k as usize][0][1],
+                json!(((y + 90.0) * 1e6).round() as i64)
+            );
+        }
     }
 
     #[test]

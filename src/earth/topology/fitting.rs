@@ -77,6 +77,7 @@ pub(super) fn fit_arcs(
     tolerance: ToleranceRule,
     options: &crate::sphere::FitOptions,
     job: &Job,
+    phases: &mut Phases,
 ) -> Result<FittedArcs, EarthError> {
     let mut arc_ring = vec![usize::MAX; graph.arcs.len()];
     for (ri, uses) in graph.rings.iter().enumerate() {
@@ -97,7 +98,10 @@ pub(super) fn fit_arcs(
     };
     let all: Vec<usize> = (0..graph.arcs.len()).collect();
     let fitted = fitting.fit_many(&all, |_| tolerance)?;
-    tighten(&fitting, fitted, tolerance)
+    phases.lap("fit arcs");
+    let tightened = tighten(&fitting, fitted, tolerance);
+    phases.lap("crossings");
+    tightened
 }
 
 /// Refits the arcs that meet where their input did not ([`crate::earth::validity::tighten`]),

@@ -129,6 +129,8 @@ pub struct Coverage {
     /// Decimal steps in a step of the grid the positions are on
     /// ([`super::OutputOptions::grid_multiple`]).
     pub grid_multiple: u32,
+    /// How long each step of the fit took.
+    pub phases: Phases,
 }
 
 impl Coverage {
@@ -208,6 +210,7 @@ pub type PolygonArcs = Vec<Vec<Vec<ArcUse>>>;
 
 mod fit_arc;
 mod fitting;
+mod phases;
 mod read;
 mod rebuild;
 mod report;
@@ -220,6 +223,8 @@ use fitting::*;
 use read::*;
 use rebuild::*;
 use report::*;
+
+pub use phases::Phases;
 
 /// Fits the polygon features of `doc` as one coverage with shared borders (see the module
 /// docs); the job's operation must be [`Operation::FitToTolerance`]. Other features are
@@ -241,7 +246,9 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         unreachable!("validate refuses other operations with shared topology");
     };
     let _scope = job.cancel.enter();
+    let mut phases = Phases::new();
     let mut input = read_coverage(&doc, job)?;
+    phases.lap("read rings");
     // Features other than polygons are fitted one by one on the decimal grid: the coarser
     // grid of a TopoJSON coverage is only taken when every feature is written on it.
     let grid_multiple = if input.polygon_kind.iter().any(Option::is_none) {
@@ -250,6 +257,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         job.output.grid_multiple
     };
     let graph = ArcGraph::build(&input.rings);
+    phases.lap("arc graph");
     let tolerance = ToleranceRule::new(*tolerance_m, job.output.precision)
         .with_grid_multiple(grid_multiple)
         .with_snap_first(true);
@@ -259,7 +267,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         tightened,
         crossings_left,
         grid_multiple,
-    } = fit_arcs(&graph, &input.sources, tolerance, options, job)?;
+    } = fit_arcs(&graph, &input.sources, tolerance, options, job, &mut phases)?;
     // The rings rebuilt (kept small rings, antimeridian cuts) on the grid the arcs are on.
     let on_grid;
     let job = if grid_multiple == job.output.grid_multiple {
@@ -292,14 +300,20 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     };
     let mut feature_rings: Vec<Option<PolygonArcs>> = vec![None; doc.slots.len()];
     let mut totals = Totals::new();
-    for (fi, slot) in doc.slots.iter().enumerate() {
-        let Some(kind) = input.polygon_kind[fi] else {
-            continue;
-        };
-        let Source::Feature { feature, .. } = &slot.source else {
-            continue;
-        };
-        let mut rebuilt = rebuild.feature(fi, kind, feature, &by_feature[fi]);
+    // Each polygon feature rebuilt on its own (in parallel), then counted in order.
+    let rebuilt: Vec<(usize, RebuiltFeature)> = doc
+        .slots
+        .par_iter()
+        .enumerate()
+        .filter_map(|(fi, slot)| {
+            let kind = input.polygon_kind[fi]?;
+            let Source::Feature { feature, .. } = &slot.source else {
+                return None;
+            };
+            Some((fi, rebuild.feature(fi, kind, feature, &by_feature[fi])))
+        })
+        .collect();
+    for (fi, mut rebuilt) in rebuilt {
         totals.add(&rebuilt);
         if job.carry == crate::earth::Carry::Geometry {
             if let Some(fit) = rebuilt.feature.pointer_mut("/properties/fit") {
@@ -313,6 +327,7 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
         features[fi] = Some(rebuilt.feature);
         feature_rings[fi] = rebuilt.rings;
     }
+    phases.lap("rebuild features");
     let stored_once: usize = fitted.iter().map(|a| a.stored_numbers).sum();
     stats.stored_numbers += stored_once;
     let report = dataset_report(
@@ -327,17 +342,24 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
             drop_small_rings: job.drop_small_rings,
         },
     );
+    phases.lap("report");
+    // The input, read and rebuilt, freed on every thread (it was parsed on every thread).
+    let Document { members, slots } = doc;
+    slots.into_par_iter().for_each(drop);
+    drop(input);
+    phases.lap("free input");
     Ok(Coverage {
         features: features
             .into_iter()
             .map(|f| f.expect("every slot processed"))
             .collect(),
-        members: doc.members,
+        members,
         graph,
         arcs: fitted,
         feature_rings,
         report,
         stats,
         grid_multiple: job.output.grid_multiple,
+        phases,
     })
 }

@@ -3,7 +3,7 @@
 //! came cut at ±180) are read in order, each with where it came from.
 
 use super::*;
-use crate::earth::features::{array_at, check_bbox, invalid};
+use crate::earth::features::{array_at, check_bbox, invalid, FeatureSlot};
 
 /// A polygon ring of the input and where it came from.
 pub(super) struct RingSource {
@@ -32,132 +32,189 @@ pub(super) struct CoverageInput {
     pub(super) polygon_poles: Vec<Vec<Option<f64>>>,
 }
 
-/// Reads `doc` for a coverage (see [`CoverageInput`]).
+/// One slot of the document as read: a feature processed as usual, or a polygon feature's
+/// rings.
+enum SlotRead {
+    Processed(Value, FeatureStats),
+    Polygon {
+        kind: &'static str,
+        /// Its rings in order, each with where it came from.
+        rings: Vec<(InputRing, RingSource)>,
+        /// Its rings as read, `[lon, lat]`, by polygon.
+        input_ll: Vec<Vec<Vec<[f64; 2]>>>,
+        poles: Vec<Option<f64>>,
+    },
+}
+
+/// Reads `doc` for a coverage (see [`CoverageInput`]): the slots in parallel, the first error
+/// in document order returned.
 pub(super) fn read_coverage(doc: &Document, job: &Job) -> Result<CoverageInput, EarthError> {
-    // Which slots are polygon features; the others are processed as usual.
-    let mut features: Vec<Option<Value>> = vec![None; doc.slots.len()];
-    let mut polygon_kind: Vec<Option<&'static str>> = vec![None; doc.slots.len()];
-    let mut stats = FeatureStats::default();
-    let mut rings: Vec<InputRing> = Vec::new();
-    let mut sources: Vec<RingSource> = Vec::new();
-    let mut input_ll: Vec<Vec<Vec<Vec<[f64; 2]>>>> = vec![Vec::new(); doc.slots.len()];
-    // The pole each rejoined polygon of a feature was closed along in its cut-form input.
-    let mut polygon_poles: Vec<Vec<Option<f64>>> = vec![Vec::new(); doc.slots.len()];
-    for (fi, slot) in doc.slots.iter().enumerate() {
-        job.cancel
-            .check()
-            .map_err(|e| EarthError::new(slot.pointer.clone(), Problem::Fit(e)))?;
-        let kind = match &slot.source {
-            Source::Feature { feature, .. } => polygon_type(feature),
-            Source::Spline(_) => None,
-        };
-        let Some(kind) = kind else {
-            let out = slot.process(job)?;
-            stats.merge(&out.stats);
-            features[fi] = Some(out.feature.into_value());
-            continue;
-        };
-        let Source::Feature {
-            feature,
-            geometry_pointer,
-        } = &slot.source
-        else {
-            unreachable!("polygon_type only accepts features");
-        };
-        // The feature's own members are checked as without topology, on a copy without its
-        // geometry.
-        let mut bare = feature.clone();
-        bare["geometry"] = Value::Null;
-        process_feature(&bare, &slot.pointer, job)?;
-        let geometry = &feature["geometry"];
-        if let Some(g) = geometry.as_object() {
-            check_bbox(g, geometry_pointer)?;
-        }
-        let cptr = format!("{geometry_pointer}/coordinates");
-        let coords = geometry
-            .get("coordinates")
-            .ok_or_else(|| invalid(geometry_pointer, format!("a {kind} needs \"coordinates\"")))?;
-        let polygons: Vec<(String, &Value)> = if kind == "Polygon" {
-            vec![(cptr.clone(), coords)]
-        } else {
-            array_at(coords, &cptr, "polygons")?
-                .iter()
-                .enumerate()
-                .map(|(i, p)| (format!("{cptr}/{i}"), p))
-                .collect()
-        };
-        // Polygons cut at ±180 are rejoined into rings on the sphere, as per-feature fitting
-        // does (antimeridian::rejoin).
-        let rejoined = antimeridian::rejoin::rejoin_cut_polygons(&polygons)
-            .transpose()
-            .map_err(crate::earth::features::no_area_on_the_sphere)?;
-        let kind = match &rejoined {
-            Some(p) if kind == "Polygon" && p.len() == 1 => "Polygon",
-            Some(_) => "MultiPolygon",
-            None => kind,
-        };
-        let mut ring_sets: Vec<Vec<(String, &Value)>> = Vec::with_capacity(polygons.len());
-        match &rejoined {
-            Some(polys) => {
-                for poly in polys {
-                    ring_sets.push(poly.rings.iter().map(|(p, r)| (p.clone(), r)).collect());
-                }
-                polygon_poles[fi] = polys.iter().map(|p| p.pole).collect();
+    let read: Vec<Result<SlotRead, EarthError>> = doc
+        .slots
+        .par_iter()
+        .enumerate()
+        .map(|(fi, slot)| read_slot(fi, slot, job))
+        .collect();
+    let n = doc.slots.len();
+    let mut input = CoverageInput {
+        features: vec![None; n],
+        polygon_kind: vec![None; n],
+        stats: FeatureStats::default(),
+        rings: Vec::new(),
+        sources: Vec::new(),
+        input_ll: vec![Vec::new(); n],
+        polygon_poles: vec![Vec::new(); n],
+    };
+    for (fi, r) in read.into_iter().enumerate() {
+        match r? {
+            SlotRead::Processed(feature, stats) => {
+                input.stats.merge(&stats);
+                input.features[fi] = Some(feature);
             }
-            None => {
-                for (pptr, poly) in &polygons {
-                    ring_sets.push(
-                        array_at(poly, pptr, "rings")?
-                            .iter()
-                            .enumerate()
-                            .map(|(ri, ring)| (format!("{pptr}/{ri}"), ring))
-                            .collect(),
-                    );
+            SlotRead::Polygon {
+                kind,
+                rings,
+                input_ll,
+                poles,
+            } => {
+                for (ring, source) in rings {
+                    input.rings.push(ring);
+                    input.sources.push(source);
                 }
+                input.input_ll[fi] = input_ll;
+                input.polygon_poles[fi] = poles;
+                input.polygon_kind[fi] = Some(kind);
             }
         }
-        for (pi, poly_rings) in ring_sets.into_iter().enumerate() {
-            let mut poly_ll = Vec::new();
-            for (ri, (rptr, ring)) in poly_rings.into_iter().enumerate() {
-                // A ring of one distinct position bounds no area: read here, kept as it came below.
-                let line = match prepare_line(ring, &rptr, true, None) {
-                    Ok((line, _, _)) => line,
-                    Err(e) if matches!(e.problem, Problem::TooFewPoints { .. }) => {
-                        crate::earth::curve::parse_positions(ring, &rptr)?
-                    }
-                    Err(e) => return Err(e),
-                };
-                poly_ll.push(
-                    line.points
+    }
+    Ok(input)
+}
+
+/// Reads slot `fi` (see [`SlotRead`]).
+fn read_slot(fi: usize, slot: &FeatureSlot, job: &Job) -> Result<SlotRead, EarthError> {
+    job.cancel
+        .check()
+        .map_err(|e| EarthError::new(slot.pointer.clone(), Problem::Fit(e)))?;
+    let kind = match &slot.source {
+        Source::Feature { feature, .. } => polygon_type(feature),
+        Source::Spline(_) => None,
+    };
+    let Some(kind) = kind else {
+        let out = slot.process(job)?;
+        return Ok(SlotRead::Processed(out.feature.into_value(), out.stats));
+    };
+    let Source::Feature {
+        feature,
+        geometry_pointer,
+    } = &slot.source
+    else {
+        unreachable!("polygon_type only accepts features");
+    };
+    // The feature's own members are checked as without topology, on a copy without its
+    // geometry.
+    let bare: Map<String, Value> = feature
+        .as_object()
+        .expect("polygon_type only accepts objects")
+        .iter()
+        .map(|(k, v)| {
+            let v = if k == "geometry" {
+                Value::Null
+            } else {
+                v.clone()
+            };
+            (k.clone(), v)
+        })
+        .collect();
+    process_feature(&Value::Object(bare), &slot.pointer, job)?;
+    let geometry = &feature["geometry"];
+    if let Some(g) = geometry.as_object() {
+        check_bbox(g, geometry_pointer)?;
+    }
+    let cptr = format!("{geometry_pointer}/coordinates");
+    let coords = geometry
+        .get("coordinates")
+        .ok_or_else(|| invalid(geometry_pointer, format!("a {kind} needs \"coordinates\"")))?;
+    let polygons: Vec<(String, &Value)> = if kind == "Polygon" {
+        vec![(cptr.clone(), coords)]
+    } else {
+        array_at(coords, &cptr, "polygons")?
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (format!("{cptr}/{i}"), p))
+            .collect()
+    };
+    // Polygons cut at ±180 are rejoined into rings on the sphere, as per-feature fitting
+    // does (antimeridian::rejoin).
+    let rejoined = antimeridian::rejoin::rejoin_cut_polygons(&polygons)
+        .transpose()
+        .map_err(crate::earth::features::no_area_on_the_sphere)?;
+    let kind = match &rejoined {
+        Some(p) if kind == "Polygon" && p.len() == 1 => "Polygon",
+        Some(_) => "MultiPolygon",
+        None => kind,
+    };
+    let mut ring_sets: Vec<Vec<(String, &Value)>> = Vec::with_capacity(polygons.len());
+    let mut poles = Vec::new();
+    match &rejoined {
+        Some(polys) => {
+            for poly in polys {
+                ring_sets.push(poly.rings.iter().map(|(p, r)| (p.clone(), r)).collect());
+            }
+            poles = polys.iter().map(|p| p.pole).collect();
+        }
+        None => {
+            for (pptr, poly) in &polygons {
+                ring_sets.push(
+                    array_at(poly, pptr, "rings")?
                         .iter()
-                        .map(|p| {
-                            let (lon, lat) = unit_to_lonlat(p);
-                            [lon, lat]
-                        })
+                        .enumerate()
+                        .map(|(ri, ring)| (format!("{pptr}/{ri}"), ring))
                         .collect(),
                 );
-                rings.push(InputRing {
+            }
+        }
+    }
+    let mut rings = Vec::new();
+    let mut input_ll = Vec::with_capacity(ring_sets.len());
+    for (pi, poly_rings) in ring_sets.into_iter().enumerate() {
+        let mut poly_ll = Vec::new();
+        for (ri, (rptr, ring)) in poly_rings.into_iter().enumerate() {
+            // A ring of one distinct position bounds no area: read here, kept as it came below.
+            let line = match prepare_line(ring, &rptr, true, None) {
+                Ok((line, _, _)) => line,
+                Err(e) if matches!(e.problem, Problem::TooFewPoints { .. }) => {
+                    crate::earth::curve::parse_positions(ring, &rptr)?
+                }
+                Err(e) => return Err(e),
+            };
+            poly_ll.push(
+                line.points
+                    .iter()
+                    .map(|p| {
+                        let (lon, lat) = unit_to_lonlat(p);
+                        [lon, lat]
+                    })
+                    .collect(),
+            );
+            rings.push((
+                InputRing {
                     points: line.points,
-                });
-                sources.push(RingSource {
+                },
+                RingSource {
                     feature: fi,
                     polygon: pi,
                     ring: ri,
                     pointer: rptr,
-                });
-            }
-            input_ll[fi].push(poly_ll);
+                },
+            ));
         }
-        polygon_kind[fi] = Some(kind);
+        input_ll.push(poly_ll);
     }
-    Ok(CoverageInput {
-        features,
-        polygon_kind,
-        stats,
+    Ok(SlotRead::Polygon {
+        kind,
         rings,
-        sources,
         input_ll,
-        polygon_poles,
+        poles,
     })
 }
 

@@ -264,3 +264,36 @@ fn a_polygon_coverage_written_as_topojson_lies_on_the_coarser_grid_within_the_to
     let c = fit_coverage(Document::parse(two_neighbours(), false).unwrap(), &j).unwrap();
     assert_eq!(c.grid_multiple, 1);
 }
+
+#[test]
+fn a_coverage_read_and_rebuilt_on_many_threads_is_the_one_made_on_one() {
+    // The world 110m fixture (177 countries, a line and a point added so some slots are
+    // processed one by one), read with `parse_json` and fitted in pools of 1 and 4 threads:
+    // the steps that run per feature in parallel (reading, rebuilding) give the same output.
+    let text = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/coverage_world_110m.geojson"
+    ))
+    .unwrap();
+    let mut value = crate::earth::features::parse_json(&text).unwrap();
+    assert_eq!(value, serde_json::from_slice::<Value>(&text).unwrap());
+    let features = value["features"].as_array_mut().unwrap();
+    features.insert(
+        3,
+        json!({"type": "Feature", "properties": {}, "geometry": {"type": "LineString", "coordinates": [[0, 0], [1, 1], [2, 0]]}}),
+    );
+    features.push(json!({"type": "Feature", "properties": null, "geometry": {"type": "Point", "coordinates": [5, 5]}}));
+    let fit_on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let doc = Document::parse(value.clone(), false).unwrap();
+        let c = pool.install(|| fit_coverage(doc, &job(1000.0))).unwrap();
+        (c.features, c.report, c.feature_rings)
+    };
+    let one = fit_on(1);
+    assert_eq!(one.0.len(), 179);
+    assert_eq!(one.0[3]["geometry"]["type"], "LineString");
+    assert_eq!(fit_on(4), one);
+}
