@@ -99,7 +99,6 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// Returns whether any parameter moved.
     fn correct_range_polyline(&mut self, j0: usize, j1: usize) -> bool {
         let n = self.points.len();
-        let d = self.d;
         let last = self.last_span();
         let mut k = 1;
         let mut moved = false;
@@ -113,29 +112,9 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             }
             let (lo, hi) = (self.params[j - 1], self.params[j + 1]);
             let t = self.params[j];
-            if !(self.knots[k] <= t && (t < self.knots[k + 1] || k == last)) {
-                k = self
-                    .knots
-                    .partition_point(|&u| u <= t)
-                    .saturating_sub(1)
-                    .clamp(1, last);
-            }
-            let q = self.points.get(j);
-            // The foot on span k's arc, as (parameter, where it fell: -1 before the arc's
-            // start, 1 past its end, 0 on it, and then the point's distance to it).
-            let mut foot = |k: usize| foot_on_span(self, &mut frames, d, k, q);
-            let Some(mut best) = foot(k) else {
+            let Some((best, _)) = self.polyline_foot(&mut frames, &mut k, last, j) else {
                 continue;
             };
-            // Past a vertex: the foot may lie on the next arc (or the one before).
-            let next = match best.1 {
-                1 if k < last => foot(k + 1),
-                -1 if k > 1 => foot(k - 1),
-                _ => None,
-            };
-            if let Some(f @ (_, 0, _)) = next {
-                best = f;
-            }
             let (tn, side, dist) = best;
             let clamped = tn.clamp(lo, hi);
             if clamped == t {
@@ -167,7 +146,6 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// error and the weighted sum of squares, as [`measure_range`](Self::measure_range) does.
     pub(super) fn project_range_polyline(&mut self, j0: usize, j1: usize) -> (f64, f64) {
         let n = self.points.len();
-        let d = self.d;
         let last = self.last_span();
         let mut k = 1;
         let (mut max, mut sq): (f64, f64) = (0.0, 0.0);
@@ -177,26 +155,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             let mut e = None;
             if j > 0 && j + 1 < n {
                 let (lo, hi) = (self.params[j - 1], self.params[j + 1]);
-                if !(self.knots[k] <= t && (t < self.knots[k + 1] || k == last)) {
-                    k = self
-                        .knots
-                        .partition_point(|&u| u <= t)
-                        .saturating_sub(1)
-                        .clamp(1, last);
-                }
-                let q = self.points.get(j);
-                let mut foot = |k: usize| foot_on_span(self, &mut frames, d, k, q);
-                if let Some(mut best) = foot(k) {
-                    let mut same_span = true;
-                    let next = match best.1 {
-                        1 if k < last => foot(k + 1),
-                        -1 if k > 1 => foot(k - 1),
-                        _ => None,
-                    };
-                    if let Some(f @ (_, 0, _)) = next {
-                        best = f;
-                        same_span = false;
-                    }
+                if let Some((best, same_span)) = self.polyline_foot(&mut frames, &mut k, last, j) {
                     let (tn, side, dist) = best;
                     let clamped = tn.clamp(lo, hi);
                     let on_arc = side == 0 && clamped == tn && dist < 0.1;
@@ -230,6 +189,42 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             sq += self.weight[j] * e * e;
         }
         (max, sq)
+    }
+
+    /// The foot of point `j` on the polyline (degree 1): on the arc of the span its parameter
+    /// is in (`k`, moved there when it is not: the points of a pass come in order), or, past
+    /// that arc's end or before its start, on the next arc or the one before. Returns the foot
+    /// as [`foot_on_span`] does, and whether it is on the parameter's own span; `None` for a
+    /// degenerate arc.
+    fn polyline_foot(
+        &self,
+        frames: &mut [Option<(usize, ArcFrame)>; 2],
+        k: &mut usize,
+        last: usize,
+        j: usize,
+    ) -> Option<((f64, i8, f64), bool)> {
+        let t = self.params[j];
+        if !(self.knots[*k] <= t && (t < self.knots[*k + 1] || *k == last)) {
+            *k = self
+                .knots
+                .partition_point(|&u| u <= t)
+                .saturating_sub(1)
+                .clamp(1, last);
+        }
+        let k = *k;
+        let q = self.points.get(j);
+        let mut foot = |k: usize| foot_on_span(self, frames, self.d, k, q);
+        let best = foot(k)?;
+        // Past a vertex: the foot may lie on the next arc (or the one before).
+        let next = match best.1 {
+            1 if k < last => foot(k + 1),
+            -1 if k > 1 => foot(k - 1),
+            _ => None,
+        };
+        Some(match next {
+            Some(f @ (_, 0, _)) => (f, false),
+            _ => (best, true),
+        })
     }
 
     pub(in crate::sphere::compress::tolerance) fn correct_all(&mut self, steps: usize) {
