@@ -1,7 +1,7 @@
 //! One vertex target's curves of every degree: the degree probe, the seeded fits with knot
 //! insertion and removal, and the fewest control points on uniform knots.
 
-use super::fitter::{Fitter, REFIT_ITERATIONS};
+use super::fitter::{Fitter, Stale, REFIT_ITERATIONS};
 use super::pieces::polyline_in_pieces;
 use super::{stored_numbers, Curve, KnotRule, Line, ToleranceOptions};
 use crate::sphere::curve::bspline::{clamped_uniform_knots, with_degree, Degree};
@@ -262,7 +262,17 @@ fn uniform_search<D: Dim, G: Degree>(
             f.pin_ends();
         }
         f.correct_all(UNIFORM_FOOT_STEPS);
-        f.refit_or_give_up(0, f.n_ctrl(), 3 * REFIT_ITERATIONS, target, 3.0, true);
+        // The correction has measured every point.
+        let measured = Stale::Points(0, 0);
+        f.refit_from(
+            0,
+            f.n_ctrl(),
+            3 * REFIT_ITERATIONS,
+            target,
+            3.0,
+            true,
+            measured,
+        );
         Some(f)
     };
     let hi_limit = most;

@@ -1,6 +1,6 @@
 //! Knot insertion where points are out of tolerance, with refits until the target is met.
 
-use super::{Fitter, REFIT_ITERATIONS};
+use super::{Fitter, Stale, REFIT_ITERATIONS};
 use crate::sphere::curve::bspline::Degree;
 use crate::sphere::geometry::point::{slerp, Dim, PointSet};
 
@@ -16,9 +16,12 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         if self.p() == 1 {
             self.refit_spans_over(target);
         }
+        // Every error is current when refinement starts; an insertion changes the curve.
+        let mut stale = Stale::Points(0, 0);
         loop {
             let n = self.n_ctrl();
-            let max = self.refit(0, n, REFIT_ITERATIONS, target);
+            let max = self.refit_from(0, n, REFIT_ITERATIONS, target, f64::INFINITY, false, stale);
+            stale = Stale::Window;
             let max = max.max(self.max_error());
             if best.as_ref().is_none_or(|b| max < b.0) {
                 best = Some((

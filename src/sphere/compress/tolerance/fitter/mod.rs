@@ -9,6 +9,8 @@ mod insertion;
 mod refit;
 mod removal;
 
+pub(super) use refit::Stale;
+
 use super::{Curve, KnotRule, Line, ToleranceOptions};
 use crate::sphere::compress::simplify::{douglas_peucker, douglas_peucker_ordered};
 use crate::sphere::curve::bspline::{
@@ -373,8 +375,18 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let mut max = f.max_error();
         if max > target && p >= 2 {
             f.correct_all(4);
+            // (The correction has measured every point.)
+            let measured = Stale::Points(0, 0);
             max = f
-                .refit(0, n, 3 * REFIT_ITERATIONS, target)
+                .refit_from(
+                    0,
+                    n,
+                    3 * REFIT_ITERATIONS,
+                    target,
+                    f64::INFINITY,
+                    false,
+                    measured,
+                )
                 .max(f.max_error());
         }
         if max <= target {

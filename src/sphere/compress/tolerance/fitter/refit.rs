@@ -19,13 +19,8 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         self.refit_or_give_up(c0, c1, iterations, target, f64::INFINITY, false)
     }
 
-    /// [`refit`](Self::refit) that stops after [`GIVE_UP_AFTER`] iterations when the max error
-    /// is still above `give_up × target`: used where a miss is cheap (bisection, removals).
-    /// With `stall`, it also stops once even the last pass's gain, kept up for every pass
-    /// left, would not reach the target (the passes slow down, they do not speed up): the
-    /// long whole-curve fits of the uniform-knot search, where a doomed fit otherwise runs
-    /// all its passes. (Not in removals: there the short refits decide which knots go, and
-    /// stopping them early changed the greedy order for the worse on the 10m border.)
+    /// [`refit_or_give_up`](Self::refit_or_give_up) with the window's errors measured at the
+    /// start only where `stale` says they are out of date.
     pub(in crate::sphere::compress::tolerance) fn refit_or_give_up(
         &mut self,
         c0: usize,
@@ -34,6 +29,27 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         target: f64,
         give_up: f64,
         stall: bool,
+    ) -> f64 {
+        self.refit_from(c0, c1, iterations, target, give_up, stall, Stale::Window)
+    }
+
+    /// [`refit`](Self::refit) that stops after [`GIVE_UP_AFTER`] iterations when the max error
+    /// is still above `give_up × target`: used where a miss is cheap (bisection, removals).
+    /// With `stall`, it also stops once even the last pass's gain, kept up for every pass
+    /// left, would not reach the target (the passes slow down, they do not speed up): the
+    /// long whole-curve fits of the uniform-knot search, where a doomed fit otherwise runs
+    /// all its passes. (Not in removals: there the short refits decide which knots go, and
+    /// stopping them early changed the greedy order for the worse on the 10m border.)
+    #[allow(clippy::too_many_arguments)]
+    pub(in crate::sphere::compress::tolerance) fn refit_from(
+        &mut self,
+        c0: usize,
+        c1: usize,
+        iterations: usize,
+        target: f64,
+        give_up: f64,
+        stall: bool,
+        stale: Stale,
     ) -> f64 {
         // A closed line keeps its seam, and pinned ends (junctions of a coverage) stay: the
         // end control points stay on the first and last points, so a ring is closed as
@@ -54,7 +70,13 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         }
         let (p, dim, d) = (self.p(), self.d.get(), self.d);
         let nf = c1 - c0;
-        let (mut max, mut loss) = self.measure_range(j0, j1);
+        let (mut max, mut loss) = match stale {
+            Stale::Window => self.measure_range(j0, j1),
+            Stale::Points(s0, s1) => {
+                self.measure_range(s0.clamp(j0, j1), s1.clamp(j0, j1));
+                self.window_error(j0, j1)
+            }
+        };
         let mut lambda = 0.0;
         let mut buffers = std::mem::take(&mut self.buffers);
         buffers.saved.resize(nf * dim, 0.0);
@@ -163,14 +185,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             // (A polyline's step was measured at its foot points already.)
             if self.free && !fused {
                 self.correct_range(j0, j1, FOOT_POINT_STEPS);
-                let (m, l) = (
-                    self.err[j0..j1].iter().fold(0.0, |a: f64, &b| a.max(b)),
-                    (j0..j1)
-                        .map(|j| self.weight[j] * self.err[j] * self.err[j])
-                        .sum::<f64>(),
-                );
-                max = m;
-                loss = l;
+                (max, loss) = self.window_error(j0, j1);
             } else if !self.free && gain <= 1e-6 * loss {
                 break;
             }
@@ -179,12 +194,35 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         max
     }
 
+    /// The max error and the weighted sum of squares of points `j0 .. j1`, as they are in
+    /// `err` (no point measured).
+    fn window_error(&self, j0: usize, j1: usize) -> (f64, f64) {
+        (
+            self.err[j0..j1].iter().fold(0.0, |a: f64, &b| a.max(b)),
+            (j0..j1)
+                .map(|j| self.weight[j] * self.err[j] * self.err[j])
+                .sum::<f64>(),
+        )
+    }
+
     pub(super) fn restore(&mut self, c0: usize, saved: &[f64]) {
         let dim = self.d.get();
         for (i, row) in saved.chunks_exact(dim).enumerate() {
             self.ctrl.get_mut(c0 + i).copy_from_slice(row);
         }
     }
+}
+
+/// Which point errors of a refit's window are out of date when it starts (every other one
+/// is as `err` holds it: the fitter keeps `err` current through its moves).
+#[derive(Clone, Copy)]
+pub(in crate::sphere::compress::tolerance) enum Stale {
+    /// The whole window: the curve changed under it.
+    Window,
+    /// Points `s0 .. s1` only (clamped to the window; empty when none is): a polyline's
+    /// removal changes the one span that replaces the removed vertex's two, a reweighting
+    /// changes no error, and a foot-point correction has just measured every point.
+    Points(usize, usize),
 }
 
 /// `P ← exp_P(v)` with `v` projected onto the tangent plane at P.
