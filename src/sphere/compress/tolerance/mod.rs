@@ -109,7 +109,7 @@ mod pieces;
 mod tests;
 
 use self::degree::search;
-use self::fallback::{polyline_candidate, POLYLINE_CANDIDATES};
+use self::fallback::{polyline_candidate, Yardstick, POLYLINE_CANDIDATES};
 use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
 };
@@ -415,11 +415,8 @@ pub fn fit_to_tolerance(
         params: &base_params,
         free,
     };
-    let mut first_fallback = polyline_candidate(line, tolerance_rad, 0);
-    let yardstick = first_fallback
-        .as_ref()
-        .map(|c| stored_numbers(&c.spline, c.rule))
-        .unwrap_or(usize::MAX);
+    let mut first_fallback = Yardstick::new(line, tolerance_rad);
+    let yardstick = first_fallback.numbers;
     // The tolerance a curve of degree `p` must meet.
     let tolerance_of = |p: usize| {
         if p >= 2 {
@@ -506,7 +503,7 @@ pub fn fit_to_tolerance(
         // Towards the polyline: Douglas–Peucker's vertices, then every point.
         for c in (0..POLYLINE_CANDIDATES)
             .filter_map(|k| match k {
-                0 => first_fallback.take(),
+                0 => first_fallback.take_curve(),
                 _ => polyline_candidate(line, tolerance_rad, k),
             })
             .filter(|c| c.spline.control_points().len() <= cap)

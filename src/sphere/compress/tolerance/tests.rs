@@ -152,3 +152,23 @@ fn given_parameters_use_stored_knots_and_stay_put() {
     let expected = normalize_parameters(&t, 300).unwrap();
     assert_eq!(fit.parameters, expected);
 }
+
+#[test]
+fn the_yardstick_counts_the_first_fallback_and_builds_it_only_when_asked() {
+    let pts = wave(400, 0.01, 3);
+    let params = parameters(&pts, Parameterization::Chord).unwrap();
+    for (free, tol) in [(true, 1e-4), (true, 1e-3), (false, 1e-4)] {
+        let line = Line {
+            points: &pts,
+            params: &params,
+            free,
+        };
+        let eager = fallback::polyline_candidate(line, tol, 0).expect("a polyline");
+        let mut lazy = fallback::Yardstick::new(line, tol);
+        assert_eq!(lazy.numbers, stored_numbers(&eager.spline, eager.rule));
+        let built = lazy.take_curve().expect("the same polyline");
+        assert_eq!(built.spline, eager.spline);
+        assert_eq!(built.params, eager.params);
+        assert_eq!(built.rule, eager.rule);
+    }
+}
