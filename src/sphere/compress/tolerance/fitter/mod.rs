@@ -264,7 +264,12 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             .get_mut(n - 1)
             .copy_from_slice(self.points.get(last));
         self.pinned = true;
-        self.measure_range(0, self.points.len());
+        // Only the points read by the two end control points change (a seed from data points
+        // has them there already): the others keep their errors.
+        let (j0, j1) = self.window_points(0, 1);
+        self.measure_range(j0, j1);
+        let (j0, j1) = self.window_points(n - 1, n);
+        self.measure_range(j0, j1);
     }
 
     fn p(&self) -> usize {

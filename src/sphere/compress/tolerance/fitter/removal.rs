@@ -232,8 +232,11 @@ mod tests {
             params: &params,
             free: true,
         };
-        let options = ToleranceOptions::default();
-        for target in [3e-5, 1e-4, 4e-4] {
+        for (target, pin_ends) in [(3e-5, false), (1e-4, false), (4e-4, false), (1e-4, true)] {
+            let options = ToleranceOptions {
+                pin_ends,
+                ..ToleranceOptions::default()
+            };
             let mut f =
                 Fitter::seeded(Fixed::<3>, Deg::<1>, line, target, 600, &options).expect("a seed");
             f.reweight = true;
