@@ -156,8 +156,23 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         knots: Vec<f64>,
         ctrl: PointSet,
     ) -> Self {
+        let mut f = Fitter::unmeasured(d, g, points, free, params, knots, ctrl);
+        f.measure_range(0, f.points.len());
+        f
+    }
+
+    /// [`new`](Self::new) with every error 0, for a caller that sets them.
+    fn unmeasured(
+        d: D,
+        g: G,
+        points: &'a PointSet,
+        free: bool,
+        params: Vec<f64>,
+        knots: Vec<f64>,
+        ctrl: PointSet,
+    ) -> Self {
         let (p, dim, n) = (g.get(), d.get(), points.len());
-        let mut f = Fitter {
+        Fitter {
             d,
             g,
             points,
@@ -174,9 +189,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             c2: vec![0.0; dim],
             buffers: RefitBuffers::default(),
             undo: Undo::default(),
-        };
-        f.measure_range(0, n);
-        f
+        }
     }
 
     /// The curve on `knots` through the Greville control points of `line` (at `line.params`).
@@ -375,7 +388,15 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             })
             .collect();
         let ctrl = self.ctrl.clone();
-        let mut f = Fitter::new(self.d, self.g, self.points, true, params, knots, ctrl);
+        let mut f = if p == 1 {
+            // The same polyline at the same points of its arcs: the errors are this curve's
+            // (to rounding; the search measures the returned curve afresh anyway).
+            let mut f = Fitter::unmeasured(self.d, self.g, self.points, true, params, knots, ctrl);
+            f.err.copy_from_slice(&self.err);
+            f
+        } else {
+            Fitter::new(self.d, self.g, self.points, true, params, knots, ctrl)
+        };
         f.pinned = self.pinned;
         let mut max = f.max_error();
         if max > target && p >= 2 {
