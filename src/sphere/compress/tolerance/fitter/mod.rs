@@ -373,11 +373,23 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         let n = self.n_ctrl();
         let knots = clamped_uniform_knots(n, p);
         let last = self.last_span();
+        // How many knots are at or before t: the parameters do not decrease, so it is found by
+        // walking on from the last point's count (a binary search per point was 0.4 % of a
+        // 10 m fit), and searched afresh should one ever go back.
+        let mut at_or_before = 0;
+        let mut prev = f64::NEG_INFINITY;
         let params: Vec<f64> = self
             .params
             .iter()
             .map(|&t| {
-                let k = (self.knots.partition_point(|&u| u <= t).saturating_sub(1)).clamp(p, last);
+                if t < prev {
+                    at_or_before = self.knots.partition_point(|&u| u <= t);
+                }
+                prev = t;
+                while at_or_before < self.knots.len() && self.knots[at_or_before] <= t {
+                    at_or_before += 1;
+                }
+                let k = at_or_before.saturating_sub(1).clamp(p, last);
                 let (a, b) = (self.knots[k], self.knots[k + 1]);
                 let f = if b > a {
                     ((t - a) / (b - a)).clamp(0.0, 1.0)
