@@ -67,6 +67,114 @@ impl JsonOut {
     }
 }
 
+impl JsonOut {
+    /// The compact JSON text, byte for byte what `serde_json::to_vec` writes, with the number
+    /// arrays written straight from `f64` by serde_json's own formatter rather than through
+    /// the `Serializer` (its per-element state and calls) into a buffer grown from 128 bytes.
+    /// On the 10m land outlines at 10 m (12.7 MB of output) that cut serialising from 298 M to
+    /// about half the instructions.
+    ///
+    /// # Errors
+    /// As `serde_json::to_vec` of the [`Value`]s inside.
+    pub fn to_json_vec(&self) -> serde_json::Result<Vec<u8>> {
+        let mut out = Vec::with_capacity(self.size_hint());
+        self.write_compact(&mut out)?;
+        Ok(out)
+    }
+
+    /// About the length of the compact text: 14 bytes a number (a coordinate at 7 decimals
+    /// with its separators), 64 a member or value otherwise.
+    fn size_hint(&self) -> usize {
+        match self {
+            JsonOut::Value(_) => 64,
+            JsonOut::Object(m) => m.values().map(|v| 16 + v.size_hint()).sum::<usize>() + 2,
+            JsonOut::Array(a) => a.iter().map(JsonOut::size_hint).sum::<usize>() + 2,
+            JsonOut::Numbers(xs) => 14 * xs.len() + 2,
+            JsonOut::Rows { numbers, .. } => 14 * numbers.len() + 2,
+        }
+    }
+
+    fn write_compact(&self, out: &mut Vec<u8>) -> serde_json::Result<()> {
+        match self {
+            JsonOut::Value(v) => serde_json::to_writer(&mut *out, v)?,
+            JsonOut::Object(m) => {
+                out.push(b'{');
+                for (i, (k, v)) in m.iter().enumerate() {
+                    if i > 0 {
+                        out.push(b',');
+                    }
+                    serde_json::to_writer(&mut *out, k)?;
+                    out.push(b':');
+                    v.write_compact(out)?;
+                }
+                out.push(b'}');
+            }
+            JsonOut::Array(a) => {
+                out.push(b'[');
+                for (i, v) in a.iter().enumerate() {
+                    if i > 0 {
+                        out.push(b',');
+                    }
+                    v.write_compact(out)?;
+                }
+                out.push(b']');
+            }
+            JsonOut::Numbers(xs) => write_numbers(out, xs),
+            JsonOut::Rows { numbers, width } => {
+                out.push(b'[');
+                for (i, row) in numbers.chunks(*width.max(&1)).enumerate() {
+                    if i > 0 {
+                        out.push(b',');
+                    }
+                    write_numbers(out, row);
+                }
+                out.push(b']');
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether an object anywhere in the tree (the [`Value`]s included) has a member `key`:
+    /// what finding `"key":` in the compact text finds (a key ending in `"key` aside), without
+    /// scanning the text (on the land outlines at 10 m the scan for `"warnings":` cost
+    /// 165 M instructions).
+    pub fn has_key(&self, key: &str) -> bool {
+        fn in_value(v: &Value, key: &str) -> bool {
+            match v {
+                Value::Object(m) => m.iter().any(|(k, v)| k == key || in_value(v, key)),
+                Value::Array(a) => a.iter().any(|v| in_value(v, key)),
+                _ => false,
+            }
+        }
+        match self {
+            JsonOut::Value(v) => in_value(v, key),
+            JsonOut::Object(m) => m.iter().any(|(k, v)| k == key || v.has_key(key)),
+            JsonOut::Array(a) => a.iter().any(|v| v.has_key(key)),
+            JsonOut::Numbers(_) | JsonOut::Rows { .. } => false,
+        }
+    }
+}
+
+/// `[x,y,...]` as serde_json writes an array of `f64`: finite numbers by its formatter,
+/// others as `null`.
+fn write_numbers(out: &mut Vec<u8>, xs: &[f64]) {
+    use serde_json::ser::{CompactFormatter, Formatter};
+    out.push(b'[');
+    for (i, &x) in xs.iter().enumerate() {
+        if i > 0 {
+            out.push(b',');
+        }
+        if x.is_finite() {
+            CompactFormatter
+                .write_f64(out, x)
+                .expect("writing to a Vec cannot fail");
+        } else {
+            out.extend_from_slice(b"null");
+        }
+    }
+    out.push(b']');
+}
+
 impl From<Value> for JsonOut {
     fn from(v: Value) -> JsonOut {
         JsonOut::Value(v)
@@ -172,6 +280,39 @@ mod tests {
             serde_json::to_string_pretty(&out.into_value()).unwrap()
         );
         assert!(direct.starts_with(r#"{"a":[0.0,1.0,-0.0,1e-7,1.5e+300,null],"k":{"q":1},"m":[[[120.0,-0.874126],[null,1e+21]],[[1.0,2.0,3.0],[4.0,5.0,6.0]],[]],"z""#), "{direct}");
+    }
+
+    #[test]
+    fn the_compact_text_is_serde_json_s() {
+        let out = sample();
+        assert_eq!(
+            out.to_json_vec().unwrap(),
+            serde_json::to_vec(&out).unwrap()
+        );
+        let empty = JsonOut::object([
+            ("o", JsonOut::object(Vec::<(String, JsonOut)>::new())),
+            ("a", JsonOut::Array(vec![])),
+            ("n", JsonOut::Numbers(vec![])),
+        ]);
+        assert_eq!(
+            empty.to_json_vec().unwrap(),
+            serde_json::to_vec(&empty).unwrap()
+        );
+    }
+
+    #[test]
+    fn keys_are_found_where_the_text_has_them() {
+        let out = sample();
+        for key in ["z", "b", "q", "m"] {
+            let text = serde_json::to_string(&out).unwrap();
+            assert_eq!(
+                out.has_key(key),
+                text.contains(&format!("\"{key}\":")),
+                "{key}"
+            );
+        }
+        assert!(!out.has_key("warnings"));
+        assert!(JsonOut::Value(json!([{"x": {"warnings": []}}])).has_key("warnings"));
     }
 
     #[test]

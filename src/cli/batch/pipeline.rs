@@ -225,9 +225,9 @@ impl Processed {
                 return self.errors.push(format!("{label}: {e}"));
             }
         };
-        match serde_json::to_vec(&p.feature) {
+        match p.feature.to_json_vec() {
             Ok(bytes) => {
-                if bytes.windows(11).any(|w| w == b"\"warnings\":") {
+                if p.feature.has_key("warnings") {
                     self.collect_warnings(&bytes, label);
                 }
                 self.features.push(bytes)

