@@ -292,7 +292,8 @@ mod tests {
         let kept = [0, 13, 26, n - 1];
         let knots = vec![0.0, 0.0, params[13], params[26], 1.0, 1.0];
         let ctrl = points.subset(&kept);
-        let mut f = Fitter::new(Fixed::<3>, Deg::<1>, points, true, params, knots, ctrl);
+        let mut f =
+            Fitter::unmeasured(Fixed::<3>, Deg::<1>, points, true, params, knots, ctrl).measured();
         let v = f.ctrl.get_mut(1);
         v[2] += 2e-3;
         let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();

@@ -166,7 +166,7 @@ mod tests {
         let mut knots = vec![0.0];
         knots.extend(kept.iter().map(|&i| params[i]));
         knots.push(1.0);
-        let mut f = Fitter::new(
+        let mut f = Fitter::unmeasured(
             Fixed::<3>,
             Deg::<1>,
             &points,
@@ -174,7 +174,8 @@ mod tests {
             params,
             knots,
             points.subset(&kept),
-        );
+        )
+        .measured();
         f.correct_all(4);
         let target = 2.0 * f.max_error().max(1e-7);
         let v = f.ctrl.get_mut(4);

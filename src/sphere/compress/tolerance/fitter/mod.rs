@@ -105,7 +105,7 @@ struct Undo {
     err: Vec<f64>,
 }
 
-/// The working arrays of one Gauss–Newton refit ([`Fitter::refit_or_give_up`]).
+/// The working arrays of one Gauss–Newton refit ([`Fitter::refit_from`]).
 #[derive(Default)]
 struct RefitBuffers {
     band: SymmetricBand,
@@ -146,22 +146,8 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
     }
 
     /// The working curve `knots`, `ctrl` for `points` at data parameters `params` (moving to
-    /// foot points when `free`), every point's error measured.
-    fn new(
-        d: D,
-        g: G,
-        points: &'a PointSet,
-        free: bool,
-        params: Vec<f64>,
-        knots: Vec<f64>,
-        ctrl: PointSet,
-    ) -> Self {
-        let mut f = Fitter::unmeasured(d, g, points, free, params, knots, ctrl);
-        f.measure_range(0, f.points.len());
-        f
-    }
-
-    /// [`new`](Self::new) with every error 0, for a caller that sets them.
+    /// foot points when `free`), every error 0 until [`measured`](Self::measured) or the
+    /// caller sets them.
     fn unmeasured(
         d: D,
         g: G,
@@ -192,11 +178,17 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         }
     }
 
+    /// Every point's error measured.
+    fn measured(mut self) -> Self {
+        self.measure_range(0, self.points.len());
+        self
+    }
+
     /// The curve on `knots` through the Greville control points of `line` (at `line.params`).
     pub(super) fn with_knots(d: D, g: G, line: Line<'a>, knots: Vec<f64>) -> Option<Self> {
         let ctrl = greville_control_points(line.points, line.params, &knots, g.get()).ok()?;
         let (points, free, params) = (line.points, line.free, line.params.to_vec());
-        Some(Fitter::new(d, g, points, free, params, knots, ctrl))
+        Some(Fitter::unmeasured(d, g, points, free, params, knots, ctrl).measured())
     }
 
     /// The first curve: for degree 1 the Douglas–Peucker polyline at the tolerance itself (which
@@ -255,7 +247,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
                 // The polyline itself: control points at the kept vertices.
                 let ctrl = line.points.subset(&vertices);
                 let params = line.params.to_vec();
-                Fitter::new(d, g, line.points, line.free, params, knots, ctrl)
+                Fitter::unmeasured(d, g, line.points, line.free, params, knots, ctrl).measured()
             } else {
                 Fitter::with_knots(d, g, line, knots)?
             }
@@ -407,7 +399,7 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
             f.err.copy_from_slice(&self.err);
             f
         } else {
-            Fitter::new(self.d, self.g, self.points, true, params, knots, ctrl)
+            Fitter::unmeasured(self.d, self.g, self.points, true, params, knots, ctrl).measured()
         };
         f.pinned = self.pinned;
         let mut max = f.max_error();

@@ -8,7 +8,7 @@ use crate::sphere::geometry::point::{dot, exp_in_place, Dim};
 /// Foot-point Newton steps per point and refit.
 const FOOT_POINT_STEPS: usize = 1;
 
-/// See [`Fitter::refit_or_give_up`].
+/// See [`Fitter::refit_from`].
 const GIVE_UP_AFTER: usize = 3;
 
 impl<D: Dim, G: Degree> Fitter<'_, D, G> {
@@ -16,21 +16,15 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// fixed), alternating with foot-point correction; stops once the window's max error is at
     /// or below `target`, or when it stops improving. Returns the window's max error.
     pub(super) fn refit(&mut self, c0: usize, c1: usize, iterations: usize, target: f64) -> f64 {
-        self.refit_or_give_up(c0, c1, iterations, target, f64::INFINITY, false)
-    }
-
-    /// [`refit_or_give_up`](Self::refit_or_give_up) with the window's errors measured at the
-    /// start only where `stale` says they are out of date.
-    pub(in crate::sphere::compress::tolerance) fn refit_or_give_up(
-        &mut self,
-        c0: usize,
-        c1: usize,
-        iterations: usize,
-        target: f64,
-        give_up: f64,
-        stall: bool,
-    ) -> f64 {
-        self.refit_from(c0, c1, iterations, target, give_up, stall, Stale::Window)
+        self.refit_from(
+            c0,
+            c1,
+            iterations,
+            target,
+            f64::INFINITY,
+            false,
+            Stale::Window,
+        )
     }
 
     /// [`refit`](Self::refit) that stops after [`GIVE_UP_AFTER`] iterations when the max error
@@ -40,6 +34,8 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// long whole-curve fits of the uniform-knot search, where a doomed fit otherwise runs
     /// all its passes. (Not in removals: there the short refits decide which knots go, and
     /// stopping them early changed the greedy order for the worse on the 10m border.)
+    /// The window's errors are measured at the start only where `stale` says they are out of
+    /// date.
     #[allow(clippy::too_many_arguments)]
     pub(in crate::sphere::compress::tolerance) fn refit_from(
         &mut self,
