@@ -302,14 +302,7 @@ mod tests {
     }
 
     fn wavy_line() -> PointSet {
-        let rows: Vec<[f64; 3]> = (0..40)
-            .map(|i| {
-                let a = i as f64 * 0.003;
-                let lat = 0.004 * (9.0 * a).sin();
-                [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
-            })
-            .collect();
-        PointSet::try_from_rows(&rows).unwrap()
+        super::super::test_wave(40, 0.003, 0.004, 9.0, |_| 0.0)
     }
 
     #[test]

@@ -145,22 +145,15 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
 
 #[cfg(test)]
 mod tests {
-    use crate::sphere::compress::tolerance::fitter::Fitter;
+    use crate::sphere::compress::tolerance::fitter::{test_wave, Fitter};
     use crate::sphere::curve::bspline::Deg;
-    use crate::sphere::geometry::point::{Fixed, PointSet};
+    use crate::sphere::geometry::point::Fixed;
 
     #[test]
     fn a_polyline_missing_its_target_in_one_span_is_refitted_there_only() {
         // 80 points along a gentle wave, and the polyline through every tenth one with its
         // fifth vertex pushed off the line: only the spans next to it miss the target.
-        let rows: Vec<[f64; 3]> = (0..81)
-            .map(|i| {
-                let a = i as f64 * 0.002;
-                let lat = 0.003 * (5.0 * a).sin();
-                [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
-            })
-            .collect();
-        let points = PointSet::try_from_rows(&rows).unwrap();
+        let points = test_wave(81, 0.002, 0.003, 5.0, |_| 0.0);
         let kept: Vec<usize> = (0..=8).map(|i| 10 * i).collect();
         let params: Vec<f64> = (0..81).map(|j| j as f64 / 80.0).collect();
         let mut knots = vec![0.0];

@@ -426,3 +426,23 @@ impl<'a, D: Dim, G: Degree> Fitter<'a, D, G> {
         }
     }
 }
+
+/// A wave along the equator for the fitter's tests: `n` points `step` radians apart in
+/// longitude, at latitude `amplitude · sin(frequency · longitude) + jitter(i)`.
+#[cfg(test)]
+fn test_wave(
+    n: usize,
+    step: f64,
+    amplitude: f64,
+    frequency: f64,
+    jitter: impl Fn(usize) -> f64,
+) -> PointSet {
+    let rows: Vec<[f64; 3]> = (0..n)
+        .map(|i| {
+            let a = i as f64 * step;
+            let lat = amplitude * (frequency * a).sin() + jitter(i);
+            [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
+        })
+        .collect();
+    PointSet::try_from_rows(&rows).unwrap()
+}

@@ -205,11 +205,11 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
 
 #[cfg(test)]
 mod tests {
-    use crate::sphere::compress::tolerance::fitter::Fitter;
+    use crate::sphere::compress::tolerance::fitter::{test_wave, Fitter};
     use crate::sphere::compress::tolerance::{Line, ToleranceOptions};
     use crate::sphere::curve::bspline::Deg;
     use crate::sphere::fit::knots::{parameters, Parameterization};
-    use crate::sphere::geometry::point::{Fixed, PointSet};
+    use crate::sphere::geometry::point::Fixed;
 
     #[test]
     fn errors_stay_current_through_removals_so_refits_measure_only_what_changed() {
@@ -217,15 +217,8 @@ mod tests {
         // after a removal measure only the span that replaced the vertex's two, and the
         // reweighted ones measure nothing: that is only right while `err` holds every
         // point's error on the current curve, which a fresh measurement checks here.
-        let rows: Vec<[f64; 3]> = (0..600)
-            .map(|i| {
-                let a = i as f64 * 0.0005;
-                let jitter = 2e-5 * ((i * 7919) % 13) as f64 / 13.0;
-                let lat = 0.004 * (40.0 * a).sin() + jitter;
-                [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
-            })
-            .collect();
-        let points = PointSet::try_from_rows(&rows).unwrap();
+        let jitter = |i: usize| 2e-5 * ((i * 7919) % 13) as f64 / 13.0;
+        let points = test_wave(600, 0.0005, 0.004, 40.0, jitter);
         let params = parameters(&points, Parameterization::Chord).unwrap();
         let line = Line {
             points: &points,
