@@ -21,6 +21,13 @@ const REWEIGHT_ROUNDS: usize = 2;
 /// See [`REWEIGHT_ROUNDS`].
 const REWEIGHT_WITHIN: f64 = 1.5;
 
+/// A second reweighting round is tried only when the first left the window within this many
+/// targets: from farther out it seldom ends within the target (10m land outlines at 1 km: 74
+/// of 4,268 such rounds did), and the rounds are two fifths of a removal's Gauss–Newton steps.
+/// On the whole file (callgrind, 1 thread, 2026-12-06): 1.3 % fewer instructions at 1 km and
+/// 1.7 % at 5 km, for 64 and 16 more stored numbers (0.03 % and 0.02 %).
+const REWEIGHT_AGAIN_WITHIN: f64 = 1.2;
+
 /// Extra control points freed on each side of a removed knot's p + 1 affected ones.
 const REMOVAL_MARGIN: usize = 1;
 
@@ -122,7 +129,15 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         let mut max = self.refit_from(c0, c1, REMOVAL_ITERATIONS, target, 4.0, false, stale);
         if self.reweight {
             let mut round = 0;
-            while max > target && max <= REWEIGHT_WITHIN * target && round < REWEIGHT_ROUNDS {
+            loop {
+                let within = if round == 0 {
+                    REWEIGHT_WITHIN
+                } else {
+                    REWEIGHT_AGAIN_WITHIN
+                };
+                if max <= target || max > within * target || round >= REWEIGHT_ROUNDS {
+                    break;
+                }
                 for j in j0..j1 {
                     let r = self.err[j] / target;
                     self.weight[j] *= 1.0 + r * r * r * r;
