@@ -91,19 +91,6 @@ pub(super) fn search(
     Ok((found, closest))
 }
 
-/// Fewest turns (interior vertices) of a polyline for [`smooth_bends`] to judge it by
-/// [`PROBE_AGREEMENT`]; a shorter one is judged by [`SHORT_PROBE_AGREEMENT`].
-const PROBE_MIN_TURNS: usize = 10;
-
-/// Least share of neighbouring turns bending the same way for a polyline of fewer than
-/// [`PROBE_MIN_TURNS`] turns to be tried at degrees 2 and 3. Short polylines are most of a
-/// coastline dataset's rings (islets at 1 km and 5 km), and each one's uniform-knot search
-/// cost more than its fit; where half their turns or more disagree a smooth curve rarely
-/// stores fewer numbers. On the 10m land outlines (callgrind, 1 thread, 2026-12-06): 4.0 %
-/// fewer instructions at 1 km and 6.3 % at 5 km, for 0.06 % and 0.17 % more stored numbers
-/// (a third: -3.2 % and -5.6 %; two thirds: -8.6 % and -9.3 % for 0.19 % and 0.36 %).
-const SHORT_PROBE_AGREEMENT: f64 = 0.5;
-
 /// A line whose Douglas–Peucker polyline keeps this share of its points or more
 /// (`SPARSE_NUMERATOR / SPARSE_DENOMINATOR`) is only fitted by polylines (see [`search`]).
 const SPARSE_NUMERATOR: usize = 4;
@@ -111,6 +98,14 @@ const SPARSE_NUMERATOR: usize = 4;
 const SPARSE_DENOMINATOR: usize = 5;
 
 /// Least share of neighbouring turns bending the same way for a polyline to count as smooth.
+///
+/// Polylines of fewer than ten turns were always tried at degrees 2 and 3 until 2026-12-06;
+/// they are most of a coastline dataset's rings (islets at 1 km and 5 km), and each one's
+/// uniform-knot search cost more than its fit. Judged like the others, on the 10m land
+/// outlines (callgrind, 1 thread): 8.6 % fewer instructions at 1 km and 9.3 % at 5 km for
+/// 0.19 % and 0.36 % more stored numbers, which the removals' feet-first refits (the fitter's
+/// `FEET_FIRST_POINTS_PER_SPAN`) more than pay back at both (half their turns: -4.0 % and
+/// -6.3 % for +0.06 % and +0.17 %).
 const PROBE_AGREEMENT: f64 = 2.0 / 3.0;
 
 /// Whether a polyline (the best degree-1 fit) bends the way a smooth curve does at the
@@ -132,11 +127,6 @@ fn smooth_bends(ctrl: &PointSet) -> bool {
     if n < 4 {
         return true;
     }
-    let least = if n < PROBE_MIN_TURNS + 2 {
-        SHORT_PROBE_AGREEMENT
-    } else {
-        PROBE_AGREEMENT
-    };
     let unit_chord = |a: &[f64], b: &[f64], out: &mut [f64]| {
         let mut norm = 0.0;
         for x in 0..dim {
@@ -163,7 +153,7 @@ fn smooth_bends(ctrl: &PointSet) -> bool {
         std::mem::swap(&mut prev, &mut turn);
         std::mem::swap(&mut before, &mut after);
     }
-    agree as f64 >= least * pairs as f64
+    agree as f64 >= PROBE_AGREEMENT * pairs as f64
 }
 
 /// What [`search`] found: the curves meeting the vertex target, and the one closest to it
@@ -373,26 +363,33 @@ mod tests {
     }
 
     #[test]
-    fn short_polylines_are_probed_at_half_their_turns() {
-        // Fewer than PROBE_MIN_TURNS turns: a zigzag (every turn the other way) is not tried
-        // at degrees 2 and 3, one bend (every turn the same way) is, and so is a polyline of
-        // three vertices (one turn: nothing to compare).
+    fn short_polylines_are_probed_like_long_ones() {
+        // Fewer than ten turns: a zigzag (every turn the other way) is not tried at degrees 2
+        // and 3, one bend (every turn the same way) is, and so is a polyline of three
+        // vertices (one turn: nothing to compare).
         assert!(!smooth_bends(&short_polyline(8, 0.002, 0.0)));
         assert!(smooth_bends(&short_polyline(8, 0.0, 0.0005)));
         assert!(smooth_bends(&short_polyline(3, 0.002, 0.0)));
-        // Half the pairs agreeing is enough: turns left, left, right, right, left (two of
-        // four neighbouring pairs agree).
-        let lats = [0.0, 0.0, 0.001, 0.003, 0.004, 0.004, 0.005];
-        let rows: Vec<[f64; 3]> = lats
-            .iter()
-            .enumerate()
-            .map(|(i, &lat): (usize, &f64)| {
-                let lon = 0.01 * i as f64;
-                [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
-            })
-            .collect();
-        let half = PointSet::try_from_rows(&rows).unwrap();
-        assert!(smooth_bends(&half));
+        // Two thirds of the pairs agreeing is enough, half is not.
+        let by_lats = |lats: &[f64]| {
+            let rows: Vec<[f64; 3]> = lats
+                .iter()
+                .enumerate()
+                .map(|(i, &lat): (usize, &f64)| {
+                    let lon = 0.01 * i as f64;
+                    [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
+                })
+                .collect();
+            PointSet::try_from_rows(&rows).unwrap()
+        };
+        // Turns left, left, left, right: two of three pairs agree.
+        assert!(smooth_bends(&by_lats(&[
+            0.0, 0.0, 0.001, 0.003, 0.006, 0.008
+        ])));
+        // Turns left, left, right, right, left: two of four.
+        assert!(!smooth_bends(&by_lats(&[
+            0.0, 0.0, 0.001, 0.003, 0.004, 0.004, 0.005
+        ])));
     }
 
     #[test]

@@ -44,6 +44,18 @@ const HOPELESS_REMOVAL: f64 = 2.0;
 /// Removal sweeps over all knots (each sweep stops early when nothing could be removed).
 const REMOVAL_SWEEPS: usize = 3;
 
+/// A polyline with free parameters and this many points per span or more on average when its
+/// removals start moves the points of the span that replaces a removed vertex's two to their
+/// feet on it before the refit, instead of measuring them at their old parameters (which
+/// fall along the new span where the old spans put them, far from their feet when the two
+/// spans differed in length). The refit then starts from the errors it would reach by its
+/// first foot-point pass, and fewer removals fail on a first step spent on the parameters.
+/// On the 10m land outlines (callgrind, 1 thread, 2026-12-06): 0.29 % fewer stored numbers
+/// at 1 km and 0.32 % at 5 km for 0.6 % more instructions; at 100 m, where most rings have
+/// fewer points per span, on every ring it took 0.9 % more instructions for 90 more numbers,
+/// hence the threshold (with it: +6 numbers, +0.2 %).
+const FEET_FIRST_POINTS_PER_SPAN: usize = 2;
+
 impl<D: Dim, G: Degree> Fitter<'_, D, G> {
     /// Greedy knot removal: each interior knot in turn is removed, the p + 1 + 2·margin control
     /// points around it refitted, and the removal kept when the tolerance still holds.
@@ -59,6 +71,8 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         } else {
             REMOVAL_MARGIN
         };
+        let feet_first =
+            p == 1 && self.free && self.points.len() >= FEET_FIRST_POINTS_PER_SPAN * self.n_ctrl();
         // Per knot: its removal failed and nothing within its reach changed since.
         let mut clean = vec![false; self.knots.len()];
         for _ in 0..REMOVAL_SWEEPS {
@@ -67,7 +81,7 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
             while r < self.n_ctrl() && !crate::sphere::cancel::cancelled() {
                 if clean[r] {
                     r += 1;
-                } else if let Some((c0, c1)) = self.try_remove(r, target, margin) {
+                } else if let Some((c0, c1)) = self.try_remove(r, target, margin, feet_first) {
                     removed += 1;
                     clean.remove(r);
                     // Windows that read control points c0 .. c1 (or their points) belong to
@@ -86,8 +100,16 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         }
     }
 
-    /// Tries to remove knot `r`: the refitted window of control points when kept.
-    fn try_remove(&mut self, r: usize, target: f64, margin: usize) -> Option<(usize, usize)> {
+    /// Tries to remove knot `r`: the refitted window of control points when kept. With
+    /// `feet_first` (a polyline with free parameters, see [`FEET_FIRST_POINTS_PER_SPAN`]) the
+    /// points of the replacing span are moved to their feet on it before the refit.
+    fn try_remove(
+        &mut self,
+        r: usize,
+        target: f64,
+        margin: usize,
+        feet_first: bool,
+    ) -> Option<(usize, usize)> {
         let (p, dim) = (self.p(), self.d.get());
         let n = self.n_ctrl();
         if n <= p + 1 {
@@ -126,6 +148,14 @@ impl<D: Dim, G: Degree> Fitter<'_, D, G> {
         undo.params.extend_from_slice(&self.params[j0..j1]);
         undo.err.clear();
         undo.err.extend_from_slice(&self.err[j0..j1]);
+        let stale = match stale {
+            Stale::Points(s0, s1) if feet_first => {
+                // Measured at their feet instead: nothing else in the window changed.
+                self.project_range_polyline(s0.clamp(j0, j1), s1.clamp(j0, j1));
+                Stale::Points(j0, j0)
+            }
+            stale => stale,
+        };
         let mut max = self.refit_from(c0, c1, REMOVAL_ITERATIONS, target, 4.0, false, stale);
         if self.reweight {
             let mut round = 0;
