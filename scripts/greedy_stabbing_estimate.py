@@ -4,11 +4,12 @@ free vertices needs against the tolerance fitter's (see docs/speed.md, fifth ses
 
 Greedy ordered stabbing: from the current vertex v (a data point at the start), the longest run
 of following points that one great circle from v passes within EPS of, in order (a point's foot
-on it never more than EPS behind the furthest foot so far); the next vertex is the foot of the
-run's last point on the middle direction of the feasible wedge. Directions and distances are
-taken in v's gnomonic plane (great circles are straight lines there; at these tolerances the
-distortion is below 1e-4 of EPS). No two-way certification: the count is an estimate of what
-such a fitter would store, not a checked curve.
+on it never more than EPS behind the furthest foot so far; the line's last point hit exactly);
+the next vertex is the run's furthest foot on the middle direction of the feasible wedge.
+Directions and distances are taken in v's gnomonic plane (great circles are straight lines
+there; at these tolerances the distortion is below 1e-4 of EPS). Not certified: the count is
+an estimate of what such a fitter would store (a sampled Hausdorff check of every 7th ring
+under 400 points found EPS, docs/speed.md), not a checked curve.
 
   python3 scripts/greedy_stabbing_estimate.py T_METRES EPS_SHARE LINES.geojson FITTED.geojson
 
@@ -59,9 +60,11 @@ def run_from(pts, i, v, e1, e2, eps):
         if xy is None:
             break
         r = math.hypot(*xy)
-        if r > eps:
+        # The last point is the line's end (a ring's seam): hit exactly.
+        reach = 0.0 if j == n - 1 else eps
+        if r > reach:
             phi = math.atan2(xy[1], xy[0])
-            a = math.asin(min(1.0, eps / r))
+            a = math.asin(min(1.0, reach / r))
             if base is None:
                 base = phi
             d = (phi - base + math.pi) % (2 * math.pi) - math.pi
@@ -86,6 +89,16 @@ def ordered_until(pts, i, j, v, e1, e2, u, eps):
     return j
 
 
+def far_foot(pts, i, j, v, e1, e2, u):
+    """The furthest foot along direction u of points i..j: where the segment ends (a point
+    behind it is within eps of it, see ordered_until)."""
+    t = 0.0
+    for m in range(i, j):
+        x, y = plane(pts[m], v, e1, e2)
+        t = max(t, x * u[0] + y * u[1])
+    return t
+
+
 def greedy(pts, eps):
     n = len(pts)
     v, count, i = pts[0], 1, 1
@@ -101,9 +114,9 @@ def greedy(pts, eps):
             v, count, i = pts[i], count + 1, i + 1
             continue
         if j >= n:
+            # The run ends at the last point itself (hit exactly, see run_from).
             return count + 1
-        x, y = plane(pts[j - 1], v, e1, e2)
-        t = max(0.0, x * u[0] + y * u[1])
+        t = far_foot(pts, i, j, v, e1, e2, u)
         g = tuple(v[k] + t * (u[0] * e1[k] + u[1] * e2[k]) for k in range(3))
         v, count, i = normed(g), count + 1, j
     return count
