@@ -117,7 +117,12 @@ test('Tab reaches every enabled control and the map, and keys move the map', asy
   const v0 = await page.getAttribute('#map', 'data-view');
   await page.keyboard.press('ArrowRight');
   await page.keyboard.press('+');
-  await page.waitForFunction((v) => document.getElementById('map').dataset.view !== v, v0);
+  // Both keys' moves, not the first alone: waiting for any change raced the second key.
+  await page.waitForFunction((v) => {
+    const [lon, , z] = v.split(',').map(Number);
+    const [lonNow, , zNow] = document.getElementById('map').dataset.view.split(',').map(Number);
+    return lonNow > lon && zNow > z;
+  }, v0);
   const [lon0, , z0] = v0.split(',').map(Number);
   const [lon1, , z1] = (await page.getAttribute('#map', 'data-view')).split(',').map(Number);
   assert.ok(lon1 > lon0 && z1 > z0, `${v0} -> ${lon1},${z1}`);
