@@ -15,6 +15,7 @@ under 400 points found EPS, docs/speed.md), not a checked curve.
 
 LINES.geojson: closed LineStrings (scripts/speed_bench.sh's land outlines); FITTED.geojson:
 spherefit's output for them at T (its properties.fit.control_points are compared).
+examples/greedy_estimate.rs is the same loop in Rust, timed.
 """
 import json, math, sys
 
@@ -50,12 +51,12 @@ def plane(q, v, e1, e2):
     return (dot(q, e1) / c, dot(q, e2) / c) if c > 0.5 else None
 
 
-def run_from(pts, i, v, e1, e2, eps):
-    """The run i..j (exclusive) stabbed from v in order, and the chosen direction."""
+def run_from(pts, i, end, v, e1, e2, eps):
+    """The run i..j (exclusive, j <= end) stabbed from v in order, and the chosen direction."""
     n = len(pts)
     lo, hi, base = -math.inf, math.inf, None
     j = i
-    while j < n:
+    while j < end:
         xy = plane(pts[j], v, e1, e2)
         if xy is None:
             break
@@ -104,12 +105,12 @@ def greedy(pts, eps):
     v, count, i = pts[0], 1, 1
     while i < n:
         e1, e2 = frame(v)
-        j, u = run_from(pts, i, v, e1, e2, eps)
+        j, u = run_from(pts, i, n, v, e1, e2, eps)
         while j > i:
             m = ordered_until(pts, i, j, v, e1, e2, u, eps)
             if m == j:
                 break
-            j, u = run_from(pts[:m], i, v, e1, e2, eps)
+            j, u = run_from(pts, i, m, v, e1, e2, eps)
         if j == i:
             v, count, i = pts[i], count + 1, i + 1
             continue
