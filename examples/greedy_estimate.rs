@@ -2,9 +2,8 @@
 //! whole file (an estimate, not the fitter): `cargo run --release --example greedy_estimate --
 //! T SHARE LINES.geojson`.
 
+use spherefit::earth::lonlat::{lonlat_to_unit, EARTH_RADIUS_M};
 use std::time::Instant;
-
-const R: f64 = 6_371_008.8;
 
 type V3 = [f64; 3];
 
@@ -150,15 +149,11 @@ fn main() {
                 .as_array()
                 .expect("a LineString")
                 .iter()
-                .map(|p| {
-                    let lon = p[0].as_f64().unwrap().to_radians();
-                    let lat = p[1].as_f64().unwrap().to_radians();
-                    [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
-                })
+                .map(|p| lonlat_to_unit(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
                 .collect()
         })
         .collect();
-    let eps = share * t / R;
+    let eps = share * t / EARTH_RADIUS_M;
     let points: usize = lines.iter().map(Vec::len).sum();
     let start = Instant::now();
     let vertices: usize = lines.iter().map(|l| greedy(l, eps)).sum();

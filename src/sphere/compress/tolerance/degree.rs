@@ -343,19 +343,13 @@ mod tests {
         uniform_search(Fixed::<3>, Deg::<2>, line, target, most, false)
     }
 
-    /// `n` vertices along the equator, every other one `offset` radians north (a zigzag) or,
-    /// with `bend`, each `bend` radians further north than the one before (one bend).
-    fn short_polyline(n: usize, offset: f64, bend: f64) -> PointSet {
-        let rows: Vec<[f64; 3]> = (0..n)
-            .map(|i| {
+    /// Vertices 0.01 rad apart in longitude along the equator, at latitudes `lats`.
+    fn at_lats(lats: &[f64]) -> PointSet {
+        let rows: Vec<[f64; 3]> = lats
+            .iter()
+            .enumerate()
+            .map(|(i, &lat)| {
                 let lon = 0.01 * i as f64;
-                let lat = if bend > 0.0 {
-                    bend * (i * i) as f64
-                } else if i % 2 == 1 {
-                    offset
-                } else {
-                    0.0
-                };
                 [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
             })
             .collect();
@@ -367,27 +361,18 @@ mod tests {
         // Fewer than ten turns: a zigzag (every turn the other way) is not tried at degrees 2
         // and 3, one bend (every turn the same way) is, and so is a polyline of three
         // vertices (one turn: nothing to compare).
-        assert!(!smooth_bends(&short_polyline(8, 0.002, 0.0)));
-        assert!(smooth_bends(&short_polyline(8, 0.0, 0.0005)));
-        assert!(smooth_bends(&short_polyline(3, 0.002, 0.0)));
+        let zigzag = |n: usize| -> Vec<f64> { (0..n).map(|i| 0.002 * (i % 2) as f64).collect() };
+        let bend: Vec<f64> = (0..8).map(|i| 0.0005 * (i * i) as f64).collect();
+        assert!(!smooth_bends(&at_lats(&zigzag(8))));
+        assert!(smooth_bends(&at_lats(&bend)));
+        assert!(smooth_bends(&at_lats(&zigzag(3))));
         // Two thirds of the pairs agreeing is enough, half is not.
-        let by_lats = |lats: &[f64]| {
-            let rows: Vec<[f64; 3]> = lats
-                .iter()
-                .enumerate()
-                .map(|(i, &lat): (usize, &f64)| {
-                    let lon = 0.01 * i as f64;
-                    [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
-                })
-                .collect();
-            PointSet::try_from_rows(&rows).unwrap()
-        };
         // Turns left, left, left, right: two of three pairs agree.
-        assert!(smooth_bends(&by_lats(&[
+        assert!(smooth_bends(&at_lats(&[
             0.0, 0.0, 0.001, 0.003, 0.006, 0.008
         ])));
         // Turns left, left, right, right, left: two of four.
-        assert!(!smooth_bends(&by_lats(&[
+        assert!(!smooth_bends(&at_lats(&[
             0.0, 0.0, 0.001, 0.003, 0.004, 0.004, 0.005
         ])));
     }
