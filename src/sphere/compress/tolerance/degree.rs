@@ -9,7 +9,9 @@ use crate::sphere::fit::metrics::{measure, ErrorMetrics};
 use crate::sphere::geometry::point::{Dim, PointSet};
 use crate::sphere::SphereError;
 
-/// Every degree's curves at one vertex target (see the module docs), with honest errors.
+/// Every degree's curves at one vertex target (see the module docs), with honest errors;
+/// `polyline`, when given, is degree 1's curve (decided already) instead of a fit.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn search(
     line: Line,
     target_of: &dyn Fn(usize) -> f64,
@@ -18,12 +20,19 @@ pub(super) fn search(
     options: &ToleranceOptions,
     degrees: &[usize],
     yardstick: usize,
+    polyline: Option<(Curve, ErrorMetrics)>,
 ) -> Result<Searched, SphereError> {
     let (points, free) = (line.points, line.free);
     let mut found: Vec<(Curve, ErrorMetrics)> = Vec::new();
     let mut closest: Option<(Curve, ErrorMetrics)> = None;
+    // A polyline already decided (the greedy stabbing's) stands for degree 1.
+    let given = polyline.is_some();
+    found.extend(polyline);
     for &p in degrees {
         options.cancel.check()?;
+        if p == 1 && given {
+            continue;
+        }
         let target = target_of(p);
         // A degree is tried only after the one below it found a curve within the budget: a
         // line that no quadratic stores in fewer numbers than the polyline turns corners at

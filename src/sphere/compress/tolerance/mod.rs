@@ -111,11 +111,13 @@ mod degree;
 mod fallback;
 mod fitter;
 mod pieces;
+mod stabbing;
 #[cfg(test)]
 mod tests;
 
 use self::degree::search;
 use self::fallback::{polyline_candidate, Yardstick, POLYLINE_CANDIDATES};
+use self::stabbing::stabbing_polyline;
 use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
 };
@@ -218,6 +220,11 @@ pub struct ToleranceOptions {
     /// at 1 km, fitted one by one, 7 % fewer numbers for 46 % more CPU time, so the default
     /// is off (the first vertex share) and coverage arcs switch it on.
     pub polyline_first_share: f64,
+    /// On S^2 with free parameters, try first the polyline of one greedy pass with free
+    /// vertices ([`STABBING_SHARE`] of the tolerance, see `stabbing`): when its two-way
+    /// distance meets the tolerance it is the degree-1 curve, and the seeded polyline fit with
+    /// knot removal is not run.
+    pub stabbing: bool,
     /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
     pub cancel: crate::sphere::cancel::Cancel,
 }
@@ -239,6 +246,7 @@ impl Default for ToleranceOptions {
             measure_result: true,
             smooth_margin_rad: 0.0,
             polyline_first_share: VERTEX_SHARES[0],
+            stabbing: true,
             cancel: crate::sphere::cancel::Cancel::inherit(),
         }
     }
@@ -271,6 +279,8 @@ impl ToleranceOptions {
         with_degree_probe(degree_probe: bool);
         /// Sets the margin kept by curves of degree >= 2 ([`ToleranceOptions::smooth_margin_rad`]).
         with_smooth_margin_rad(smooth_margin_rad: f64);
+        /// Switches the greedy stabbing polyline ([`ToleranceOptions::stabbing`]) on or off.
+        with_stabbing(stabbing: bool);
     }
 }
 
@@ -434,6 +444,34 @@ pub fn fit_to_tolerance(
     // With a polyline share above the first vertex share, polylines take one share more than
     // smooth curves in each pass (see [`ToleranceOptions::polyline_first_share`]), and the
     // last pass is the polyline's alone.
+    // The greedy stabbing polyline, decided once: when it meets the tolerance it stands for
+    // degree 1 in the first pass (and the smooth degrees are probed against it).
+    let mut stabbed: Option<(Curve, ErrorMetrics)> = None;
+    if options.stabbing && free && degrees.contains(&1) {
+        options.cancel.check()?;
+        let stab = stabbing_polyline(points, internal_target(STABBING_SHARE * tolerance_rad))
+            .filter(|c| {
+                c.spline.control_points().len() <= cap
+                    && stored_numbers(&c.spline, c.rule) < yardstick
+            });
+        if let Some(c) = stab {
+            let m = measure(&c.spline, points, &c.params);
+            let tw = two_way_distance(&c.spline, points, &c.params, &tw_options)?;
+            let met = accepts(&tw, tolerance_rad, input_length);
+            if met {
+                stabbed = Some((
+                    Curve {
+                        decided: Some(tw),
+                        ..c
+                    },
+                    m,
+                ));
+            } else {
+                candidates.push(candidate(&c, &m, &tw, met, input_length));
+                best_miss = Some((c, m, tw));
+            }
+        }
+    }
     let shifted = options.polyline_first_share > VERTEX_SHARES[0];
     let passes = VERTEX_SHARES.len() + usize::from(shifted);
     'shares: for pass in 0..passes {
@@ -458,6 +496,7 @@ pub fn fit_to_tolerance(
             options,
             &pass_degrees,
             yardstick,
+            stabbed.take(),
         )?;
         // Lower shares only need more numbers: once the best curve at this share stores as
         // much as the yardstick, no later share can win.
@@ -580,6 +619,11 @@ pub const VERTEX_SHARES: [f64; 3] = [0.8, 0.55, 0.3];
 /// countries at 1 km (shared borders) it stored 7 % fewer numbers than the default
 /// (112,174 -> 104,382 with the rest unchanged).
 pub const POLYLINE_FIRST_SHARE: f64 = 1.0;
+
+/// The share of the tolerance the greedy stabbing polyline ([`ToleranceOptions::stabbing`]) is
+/// built to: its two-way distance is at most that share (up to rounding), and the decision
+/// proves bounds to [`TWO_WAY_PRECISION`] of the tolerance, so the rest is the decision's room.
+pub const STABBING_SHARE: f64 = 0.95;
 
 /// Precision of the two-way distances the fitter decides by, as a share of the tolerance.
 const TWO_WAY_PRECISION: f64 = 0.02;
