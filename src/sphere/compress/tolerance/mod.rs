@@ -17,6 +17,14 @@
 //!   and 1) between Gauss–Newton steps on the control points. The curve then only has to pass
 //!   *near* each point, not near it at a prescribed speed. Given parameters (timestamps) are
 //!   never moved.
+//! * **On S^2, a greedy polyline first.** One linear pass with free vertices (`stabbing`: from
+//!   each vertex the longest run of points one great circle passes within 0.95 of the
+//!   tolerance of, in order; the next vertex at the run's furthest foot) is decided by the
+//!   two-way check; when it meets the tolerance it is degree 1's curve and the seeded fit
+//!   below is not run (10m land outlines: half the time or less at 100 m to 5 km, and fewer
+//!   numbers; on noisy tracks at a tolerance near the noise it stores more, measured in
+//!   `docs/speed.md`, "sixth session"). Coverage arcs, rounded to a coarse grid, keep the
+//!   seeded fit ([`ToleranceOptions::stabbing`]).
 //! * **Degree 1 starts from the ordered Douglas–Peucker.** The spherical Douglas–Peucker
 //!   polyline that keeps the points in order along its chords
 //!   ([`super::simplify::douglas_peucker_ordered`]) is a degree-1 spline whose foot-point errors
@@ -102,6 +110,7 @@
 //! * `degree`: one vertex target's curves of every degree (the degree probe, the uniform-knot
 //!   search);
 //! * `pieces`: a long polyline cut at sharp corners and fitted in parallel;
+//! * `stabbing`: the greedy polyline with free vertices on S^2;
 //! * `fallback`: the polylines through Douglas–Peucker's vertices or every point;
 //! * `fitter`: the working curve of one fit and its moves: foot-point correction, Gauss–Newton
 //!   refits, knot insertion and greedy knot removal;
@@ -622,7 +631,7 @@ pub const POLYLINE_FIRST_SHARE: f64 = 1.0;
 
 /// The share of the tolerance the greedy stabbing polyline ([`ToleranceOptions::stabbing`]) is
 /// built to: its two-way distance is at most that share (up to rounding), and the decision
-/// proves bounds to [`TWO_WAY_PRECISION`] of the tolerance, so the rest is the decision's room.
+/// proves bounds to 2 % of the tolerance, so the rest is the decision's room.
 pub const STABBING_SHARE: f64 = 0.95;
 
 /// Precision of the two-way distances the fitter decides by, as a share of the tolerance.

@@ -172,3 +172,44 @@ fn the_yardstick_counts_the_first_fallback_and_builds_it_only_when_asked() {
         assert_eq!(built.rule, eager.rule);
     }
 }
+
+#[test]
+fn the_greedy_polyline_stands_for_degree_one_when_it_beats_the_yardstick() {
+    // A coastline-like line: steps of 1e-3 rad east, a slow wave and a jagged edge.
+    let rows: Vec<[f64; 3]> = (0..600)
+        .map(|i| {
+            let jag = ((i * 7919) % 13) as f64 / 12.0 - 0.5;
+            let lat = 3e-4 * (i as f64 * 0.05).sin() + 2e-4 * jag;
+            let a = i as f64 * 1e-3;
+            [lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()]
+        })
+        .collect();
+    let pts = PointSet::try_from_rows(&rows).unwrap();
+    let options = ToleranceOptions::default().with_degrees(&[1]);
+    let mut taken = 0;
+    for tol in [5e-5, 1e-4, 1.2e-4, 1.5e-4, 2e-4, 4e-4, 8e-4] {
+        let fit = fit_to_tolerance(&pts, None, tol, &options).unwrap();
+        assert!(fit.tolerance_met && fit.two_way_rad <= tol);
+        let greedy =
+            stabbing::stabbing_polyline(&pts, internal_target(STABBING_SHARE * tol)).unwrap();
+        let numbers = stored_numbers(&greedy.spline, greedy.rule);
+        let yardstick = polyline_numbers(douglas_peucker(&pts, tol).len(), 3);
+        let check = decide_options(tol, pts.len());
+        let tw = two_way_distance(&greedy.spline, &pts, &greedy.params, &check).unwrap();
+        eprintln!(
+            "{tol} {numbers} {yardstick} {:?} {}",
+            tw.exceeded,
+            tw.upper_rad / tol
+        );
+        if numbers < yardstick && !tw.exceeded && tw.upper_rad <= tol {
+            assert!(fit.spline.control_points() == greedy.spline.control_points());
+            taken += 1;
+        } else {
+            assert!(fit.spline.control_points() != greedy.spline.control_points());
+        }
+    }
+    assert!(
+        taken >= 2,
+        "the greedy polyline taken at {taken} tolerances"
+    );
+}
