@@ -30,10 +30,23 @@ pub(super) fn search(
     found.extend(polyline);
     for &p in degrees {
         options.cancel.check()?;
-        if p == 1 && given {
+        let target = target_of(p);
+        // An open line whose polyline has few vertices is tried at every degree: the greedy
+        // stabbing polyline's vertices sit at the edges of the tolerance's band, so it may
+        // zigzag, and may store fewer numbers than a quadratic, on a smooth track (20 km at
+        // 25 m: 23 numbers where a cubic stores 21), and such a line's smooth fits are cheap.
+        // Rings (islets at 1 km) are still probed.
+        let closed = points.get(0) == points.get(points.len() - 1);
+        let short_open = |c: &Curve| !closed && c.spline.control_points().len() <= SHORT_OPEN;
+        let short_polyline = found
+            .iter()
+            .any(|(c, _)| c.spline.degree() == 1 && short_open(c));
+        // The seeded polyline fit too, where the given one is short (it is then cheap, and
+        // its least-squares vertices may need one fewer: the same track at 500 m, 7 numbers
+        // against 9).
+        if p == 1 && given && !short_polyline {
             continue;
         }
-        let target = target_of(p);
         // A degree is tried only after the one below it found a curve within the budget: a
         // line that no quadratic stores in fewer numbers than the polyline turns corners at
         // this scale, and a cubic rarely does better (10m land outlines, 2 threads: 19 % less
@@ -42,6 +55,7 @@ pub(super) fn search(
         if p >= 3
             && free
             && options.degree_probe
+            && !short_polyline
             && degrees.contains(&(p - 1))
             && !found.iter().any(|(c, _)| c.spline.degree() == p - 1)
         {
@@ -53,7 +67,9 @@ pub(super) fn search(
                 .iter()
                 .filter(|(c, _)| c.spline.degree() == 1)
                 .min_by_key(|(c, _)| c.spline.control_points().len());
-            if polyline.is_some_and(|(c, _)| !smooth_bends(c.spline.control_points())) {
+            if polyline
+                .is_some_and(|(c, _)| !short_open(c) && !smooth_bends(c.spline.control_points()))
+            {
                 continue;
             }
             // Douglas–Peucker keeps nearly every point: each one is a corner at this
@@ -99,6 +115,10 @@ pub(super) fn search(
     options.cancel.check()?;
     Ok((found, closest))
 }
+
+/// Vertices of an open line's polyline up to which degrees 2 and 3 are tried whatever its
+/// turns (see [`search`]).
+const SHORT_OPEN: usize = 16;
 
 /// A line whose Douglas–Peucker polyline keeps this share of its points or more
 /// (`SPARSE_NUMERATOR / SPARSE_DENOMINATOR`) is only fitted by polylines (see [`search`]).
