@@ -530,6 +530,10 @@ fn ablation(sets: &[DataSet]) {
             ToleranceOptions::default().with_degrees(&[1]),
         ),
         (
+            "no greedy stabbing polyline",
+            ToleranceOptions::default().with_stabbing(false),
+        ),
+        (
             "no knot removal",
             ToleranceOptions::default().with_reduce(false),
         ),

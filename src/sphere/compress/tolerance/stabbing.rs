@@ -5,7 +5,10 @@
 //! point furthest along the run (the largest foot), and the next run starts there. The great
 //! circles through v are the lines through the origin of v's gnomonic plane (the tangent plane
 //! at v, points projected from the sphere's centre), so "within `eps` of every point so far" is
-//! a wedge of directions narrowed point by point: linear in the points, no refits.
+//! a wedge of directions narrowed point by point: linear in the points, no refits. Which
+//! direction of the wedge a run takes decides where the next run starts: after short runs,
+//! of the wedge's middle and edges the one whose vertex starts the longest next run is taken
+//! (a look-ahead of one run).
 //!
 //! Why: the tolerance fitter's degree-1 curve (Douglas–Peucker's ordered polyline refined and
 //! reduced by knot removal with local Gauss–Newton refits) spent most of a coastline's time at
@@ -36,15 +39,16 @@ const FAR_COSINE: f64 = 0.5;
 
 /// The directions a run's line is tried at, as shares of the way across its wedge, middle
 /// first (ties keep it): the one whose vertex starts the longest next run is taken. On the
-/// 10m land outlines this stores 4.2 % / 4.8 % / 2.8 % fewer numbers at 100 m / 1 km / 5 km
-/// than the middle alone, and a noisy 1 Hz track 32 % fewer at 5 m (docs/speed.md, "sixth
+/// 10m land outlines this stores 0.7 % / 3.9 % / 1.3 % fewer numbers at 100 m / 1 km / 5 km
+/// than the middle alone, and a noisy 1 Hz track 19 % fewer at 5 m (docs/speed.md, "sixth
 /// session").
 const LOOK_AHEAD: [f64; 3] = [0.5, 0.0, 1.0];
 
-/// Runs of more points than this take the middle of their wedge without looking ahead: on
-/// the 10m land outlines at 1 km looking ahead after every run cost 3 % of the wall time for
-/// 0.15 % fewer numbers than after runs of 8 points or fewer (at 100 m nothing: its runs are
-/// short).
+/// Runs of more points than this (or of one point) take the middle of their wedge without
+/// looking ahead. On the 10m land outlines at 1 km, looking ahead after every run cost 3 %
+/// of the wall time for 0.15 % fewer numbers than after runs of 8 points or fewer; after
+/// one-point runs too, 100 m stored 3.6 % fewer numbers but 10 m took 12 % longer (a ratio
+/// to mapshaper of 0.49 against 0.42).
 const LOOK_AHEAD_MOST_POINTS: usize = 8;
 
 /// The polyline of the greedy ordered stabbing of `points` (on S^2) at `eps` radians, as a
@@ -438,6 +442,27 @@ mod tests {
         assert_eq!(c.spline.control_points().len(), 2);
         // Below the zigzag's half width, more.
         assert!(check(&pts, 1.5e-5).spline.control_points().len() > 2);
+    }
+
+    #[test]
+    fn a_jagged_band_is_crossed_in_few_spans() {
+        // 600 points 1e-3 rad apart along the equator, jagged 1e-4 rad either side: one arc
+        // from the band's middle would do, but the first vertex is the first point, on its
+        // edge. Taking the middle of each wedge put the next vertex at the band's edge again
+        // and again (61 vertices); the look-ahead keeps the runs long.
+        let rows: Vec<(f64, f64)> = (0..600)
+            .map(|i| {
+                let jag = ((i * 7919) % 13) as f64 / 12.0 - 0.5;
+                (0.001f64.to_degrees() * i as f64, (2e-4 * jag).to_degrees())
+            })
+            .collect();
+        let pts = lonlat(&rows);
+        let c = check(&pts, 1.9e-4);
+        assert!(
+            c.spline.control_points().len() <= 20,
+            "{}",
+            c.spline.control_points().len()
+        );
     }
 
     #[test]
