@@ -333,20 +333,12 @@ fn widest_run(
             let met = match wedge {
                 None => Some(new),
                 Some(w) => {
-                    let cw = if inside(new.0, w) {
-                        Some(new.0)
-                    } else if inside(w.0, new) {
-                        Some(w.0)
-                    } else {
-                        None
+                    // Each edge of the meet: the new wedge's where it lies in the old, else
+                    // the old's where it lies in the new.
+                    let edge = |fresh: Dir, old: Dir| {
+                        (inside(fresh, w).then_some(fresh)).or(inside(old, new).then_some(old))
                     };
-                    let ccw = if inside(new.1, w) {
-                        Some(new.1)
-                    } else if inside(w.1, new) {
-                        Some(w.1)
-                    } else {
-                        None
-                    };
+                    let (cw, ccw) = (edge(new.0, w.0), edge(new.1, w.1));
                     cw.zip(ccw).filter(|&(a, b)| cross2(a, b) >= 0.0)
                 }
             };
