@@ -517,6 +517,44 @@ mod tests {
         check(&pts, 1e-5);
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(512))]
+        /// Random walks (steps of any direction and length up to a hundred times eps, with
+        /// repeats and turns back) keep every promise, or give no polyline.
+        #[test]
+        fn random_walks_keep_every_promise(
+            steps in proptest::collection::vec((0.0f64..std::f64::consts::TAU, 0.0f64..100.0), 1..120),
+            eps in 1e-6f64..1e-3,
+        ) {
+            let mut rows = vec![(10.0f64, 20.0f64)];
+            for &(dir, len) in &steps {
+                let (lon, lat) = *rows.last().unwrap();
+                let d = (len * eps).to_degrees();
+                rows.push((lon + d * dir.cos(), (lat + d * dir.sin()).clamp(-80.0, 80.0)));
+            }
+            let pts = lonlat(&rows);
+            if pts.check_no_antipodal_neighbours().is_ok() {
+                if let Some(c) = stabbing_polyline(&pts, eps) {
+                    let n = pts.len();
+                    let ctrl = c.spline.control_points();
+                    proptest::prop_assert_eq!(ctrl.get(0), pts.get(0));
+                    proptest::prop_assert_eq!(ctrl.get(ctrl.len() - 1), pts.get(n - 1));
+                    proptest::prop_assert!(c.params.windows(2).all(|w| w[0] <= w[1]));
+                    let m = measure(&c.spline, &pts, &c.params);
+                    proptest::prop_assert!(m.max_error_rad <= eps * (1.0 + 1e-9));
+                    let tw = two_way_distance(
+                        &c.spline,
+                        &pts,
+                        &c.params,
+                        &TwoWayOptions::default().with_precision_rad(0.01 * eps),
+                    )
+                    .unwrap();
+                    proptest::prop_assert!(tw.upper_rad <= 1.011 * eps, "{} > {}", tw.upper_rad, eps);
+                }
+            }
+        }
+    }
+
     #[test]
     fn other_dimensions_are_left_to_the_fitter() {
         let pts = PointSet::try_from_rows(&[[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]]).unwrap();
