@@ -28,6 +28,7 @@ pub(super) fn search(
     // A polyline already decided (the greedy stabbing's) stands for degree 1.
     let given = polyline.is_some();
     found.extend(polyline);
+    let closed = points.get(0) == points.get(points.len() - 1);
     for &p in degrees {
         options.cancel.check()?;
         let target = target_of(p);
@@ -36,7 +37,6 @@ pub(super) fn search(
         // zigzag, and may store fewer numbers than a quadratic, on a smooth track (20 km at
         // 25 m: 23 numbers where a cubic stores 21), and such a line's smooth fits are cheap.
         // Rings (islets at 1 km) are still probed.
-        let closed = points.get(0) == points.get(points.len() - 1);
         let short_open = |c: &Curve| !closed && c.spline.control_points().len() <= SHORT_OPEN;
         let short_polyline = found
             .iter()

@@ -450,9 +450,6 @@ pub fn fit_to_tolerance(
             tolerance_rad
         }
     };
-    // With a polyline share above the first vertex share, polylines take one share more than
-    // smooth curves in each pass (see [`ToleranceOptions::polyline_first_share`]), and the
-    // last pass is the polyline's alone.
     // The greedy stabbing polyline, decided once: when it meets the tolerance it stands for
     // degree 1 in the first pass (and the smooth degrees are probed against it).
     let mut stabbed: Option<(Curve, ErrorMetrics)> = None;
@@ -481,6 +478,9 @@ pub fn fit_to_tolerance(
             }
         }
     }
+    // With a polyline share above the first vertex share, polylines take one share more than
+    // smooth curves in each pass (see [`ToleranceOptions::polyline_first_share`]), and the
+    // last pass is the polyline's alone.
     let shifted = options.polyline_first_share > VERTEX_SHARES[0];
     let passes = VERTEX_SHARES.len() + usize::from(shifted);
     'shares: for pass in 0..passes {
