@@ -21,7 +21,9 @@ use geo::{coord, Intersects, Line};
 use rayon::prelude::*;
 
 use super::lonlat::{round_to, unit_to_lonlat};
-use crate::sphere::geometry::crossing::{polylines_meet, SegmentTest, GREAT_CIRCLE};
+use crate::sphere::geometry::crossing::{
+    polylines_meet_boxed, RunBoxes, SegmentTest, GREAT_CIRCLE,
+};
 
 /// Planar segments `[lon, lat, 0]`: closed segments meet when they share any point.
 const PLANAR: SegmentTest = SegmentTest {
@@ -71,9 +73,14 @@ pub(crate) struct Drawn<'a> {
     /// Each line's bounding box on the sphere (lo, hi), to skip pairs far apart without
     /// building their segment boxes.
     unit_box: Vec<Bounds>,
-    /// Each line drawn in the plane, with its box, made on first use.
-    plane: Vec<OnceLock<(Vec<[f64; 3]>, Bounds)>>,
+    /// Each line's segment boxes on the sphere, made on first use.
+    unit_runs: Vec<OnceLock<RunBoxes>>,
+    /// Each line drawn in the plane, with its box and segment boxes, made on first use.
+    plane: Vec<OnceLock<Plane>>,
 }
+
+/// A line drawn in the plane: its positions, box and segment boxes.
+type Plane = (Vec<[f64; 3]>, Bounds, RunBoxes);
 
 /// An axis-aligned box: its lowest and highest corner.
 type Bounds = ([f64; 3], [f64; 3]);
@@ -127,20 +134,27 @@ impl<'a> Drawn<'a> {
         // of edges far shorter than a quarter turn, and 1e-3 (6 km) more than covers them.
         let unit_box = lines.iter().map(|l| bounds(l, 1e-3)).collect();
         let plane = lines.iter().map(|_| OnceLock::new()).collect();
+        let unit_runs = lines.iter().map(|_| OnceLock::new()).collect();
         Drawn {
             units: lines,
             precision,
             unit_box,
+            unit_runs,
             plane,
         }
     }
 
-    fn plane(&self, a: usize) -> &(Vec<[f64; 3]>, Bounds) {
+    fn plane(&self, a: usize) -> &Plane {
         self.plane[a].get_or_init(|| {
             let line = drawn(self.units[a], self.precision);
             let b = bounds(&line, 0.0);
-            (line, b)
+            let runs = RunBoxes::of(&line, PLANAR.margin);
+            (line, b, runs)
         })
+    }
+
+    fn unit_runs(&self, a: usize) -> &RunBoxes {
+        self.unit_runs[a].get_or_init(|| RunBoxes::of(self.units[a], GREAT_CIRCLE.margin))
     }
 
     /// The pairs `(a, b)`, `a <= b`, of `lines` whose boxes on the sphere come within `grow`
@@ -175,12 +189,20 @@ impl<'a> Drawn<'a> {
     pub(crate) fn meet(&self, a: usize, b: usize) -> Meeting {
         let same = a == b;
         let in_plane = || {
-            let ((pa, ba), (pb, bb)) = (self.plane(a), self.plane(b));
-            boxes_meet(ba, bb) && polylines_meet(pa, pb, same, PLANAR)
+            let ((pa, ba, ra), (pb, bb, rb)) = (self.plane(a), self.plane(b));
+            boxes_meet(ba, bb) && polylines_meet_boxed((pa, ra), (pb, rb), same, PLANAR)
+        };
+        let on_sphere = || {
+            boxes_meet(&self.unit_box[a], &self.unit_box[b])
+                && polylines_meet_boxed(
+                    (self.units[a], self.unit_runs(a)),
+                    (self.units[b], self.unit_runs(b)),
+                    same,
+                    GREAT_CIRCLE,
+                )
         };
         Meeting {
-            on_sphere: boxes_meet(&self.unit_box[a], &self.unit_box[b])
-                && polylines_meet(self.units[a], self.units[b], same, GREAT_CIRCLE),
+            on_sphere: on_sphere(),
             in_plane: in_plane(),
         }
     }
@@ -224,6 +246,7 @@ pub(crate) fn tighten<T: Send + Sync, E: Send>(
         let mut redo: Vec<usize> = meeting.iter().flat_map(|&(a, b)| [a, b]).collect();
         redo.sort_unstable();
         redo.dedup();
+
         let refits: Vec<(usize, f64, Option<T>)> = redo
             .par_iter()
             .map(|&i| {
