@@ -22,7 +22,7 @@ use rayon::prelude::*;
 
 use super::lonlat::{round_to, unit_to_lonlat};
 use crate::sphere::geometry::crossing::{
-    polylines_meet_boxed, RunBoxes, SegmentTest, GREAT_CIRCLE,
+    meeting_segments_boxed, polylines_meet_boxed, RunBoxes, SegmentTest, GREAT_CIRCLE,
 };
 
 /// Planar segments `[lon, lat, 0]`: closed segments meet when they share any point.
@@ -206,13 +206,62 @@ impl<'a> Drawn<'a> {
             in_plane: in_plane(),
         }
     }
+
+    /// Whether every place where lines `a` and `b` of `self` meet lies within `grow` (radians,
+    /// chord) of a place where lines `a` and `b` of `before` (their input) meet: a meeting the
+    /// input had there too, which no fit within the tolerance can be asked to part.
+    fn meets_only_near(&self, before: &Drawn<'_>, a: usize, b: usize, grow: f64) -> bool {
+        // Where two segments meet: the common part of their boxes (a long edge's box would
+        // hold every place along it).
+        let places = |d: &Drawn<'_>, pairs: Vec<(usize, usize)>| -> Vec<Bounds> {
+            pairs
+                .into_iter()
+                .map(|(i, j)| {
+                    let (p, q) = (d.units[a], d.units[b]);
+                    let (s, t) = (bounds(&p[i..=i + 1], 0.0), bounds(&q[j..=j + 1], 0.0));
+                    (
+                        std::array::from_fn(|k| s.0[k].max(t.0[k])),
+                        std::array::from_fn(|k| s.1[k].min(t.1[k])),
+                    )
+                })
+                .collect()
+        };
+        let theirs = places(before, before.meeting_segments(a, b));
+        places(self, self.meeting_segments(a, b))
+            .iter()
+            .all(|(lo, hi)| {
+                let grown = (lo.map(|x| x - grow), hi.map(|x| x + grow));
+                theirs.iter().any(|t| boxes_meet(&grown, t))
+            })
+    }
+
+    /// Where lines `a` and `b` meet, as [`meet`](Self::meet) judges them either way: the pairs
+    /// `(i, j)` of a segment `i` of `a` (from its point `i` to `i + 1`) and a segment `j` of
+    /// `b` that cross on the sphere or touch as drawn.
+    pub(crate) fn meeting_segments(&self, a: usize, b: usize) -> Vec<(usize, usize)> {
+        let same = a == b;
+        let (pa, _, ra) = self.plane(a);
+        let (pb, _, rb) = self.plane(b);
+        let mut out = meeting_segments_boxed((pa, ra), (pb, rb), same, PLANAR);
+        out.extend(meeting_segments_boxed(
+            (self.units[a], self.unit_runs(a)),
+            (self.units[b], self.unit_runs(b)),
+            same,
+            GREAT_CIRCLE,
+        ));
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
 }
 
-/// Refits the lines that meet where their input did not, until none does or `rounds` refits
-/// are spent: each round the lines of every new meeting are refitted by `refit(line,
-/// tolerance_m)` at [`tightened`] tolerances (`Ok(None)` keeps the earlier fit). Only pairs with
-/// a refitted line are judged again, and the input is judged only for pairs whose output
-/// meets. Returns each line's tolerance and the meetings left.
+/// Refits the lines that meet where their input did not, until none does or `rounds` refit
+/// rounds are spent: each round the lines of every new meeting are refitted by `refit(line,
+/// tolerance_m, fit, segments)` at [`Rounds::tightened`] tolerances (`Ok(None)` keeps the earlier fit
+/// `fit`), where `segments` lists (ascending) the segments of the line's `dense` points that meet (segment
+/// `i` from point `i` to `i + 1`), for a caller that refits only there. Only pairs with a
+/// refitted line are judged again, and the input is judged only for pairs whose output meets.
+/// Returns each line's tolerance and the meetings left.
 ///
 /// # Errors
 /// The first error of `refit`.
@@ -220,24 +269,34 @@ pub(crate) fn tighten<T: Send + Sync, E: Send>(
     input: &Drawn<'_>,
     pairs: &[(usize, usize)],
     tolerance_m: f64,
-    rounds: usize,
+    rounds: Rounds,
     fitted: &mut [T],
     dense: impl Fn(&T) -> &[[f64; 3]] + Sync,
-    refit: impl Fn(usize, f64) -> Result<Option<T>, E> + Sync,
+    refit: impl Fn(usize, f64, &T, &[usize]) -> Result<Option<T>, E> + Sync,
 ) -> Result<Tightened, E> {
     let mut tolerance = vec![tolerance_m; fitted.len()];
+    // Fitted lines lie within the tolerance of their input, so a meeting the input has shows
+    // within twice of it.
+    let near = 2.0 * super::lonlat::m_to_rad(tolerance_m);
     let mut judged: Vec<(usize, usize)> = pairs.to_vec();
-    for round in 0..=rounds {
+    for round in 0..=rounds.rounds {
         let output = Drawn::new(fitted.iter().map(&dense).collect(), input.precision);
         let meeting: Vec<(usize, usize)> = judged
             .par_iter()
             .filter(|&&(a, b)| {
                 let now = output.meet(a, b);
-                now != Meeting::default() && now.is_new_since(input.meet(a, b))
+                if now == Meeting::default() {
+                    return false;
+                }
+                // Excused only where the input meets too: an arc of India's 10m coast that
+                // touches itself in one delta excused its fit's folds in another.
+                let before = input.meet(a, b);
+                now.is_new_since(before)
+                    || (before != Meeting::default() && !output.meets_only_near(input, a, b, near))
             })
             .copied()
             .collect();
-        if meeting.is_empty() || round == rounds {
+        if meeting.is_empty() || round == rounds.rounds {
             return Ok(Tightened {
                 tolerance_m: tolerance,
                 left: meeting,
@@ -246,12 +305,28 @@ pub(crate) fn tighten<T: Send + Sync, E: Send>(
         let mut redo: Vec<usize> = meeting.iter().flat_map(|&(a, b)| [a, b]).collect();
         redo.sort_unstable();
         redo.dedup();
-
+        // Each refitted line's meeting segments.
+        let mut segments: std::collections::HashMap<usize, Vec<usize>> = Default::default();
+        let found: Vec<Vec<(usize, usize)>> = meeting
+            .par_iter()
+            .map(|&(a, b)| output.meeting_segments(a, b))
+            .collect();
+        for (&(a, b), pairs) in meeting.iter().zip(found) {
+            for (i, j) in pairs {
+                segments.entry(a).or_default().push(i);
+                segments.entry(b).or_default().push(j);
+            }
+        }
+        for s in segments.values_mut() {
+            s.sort_unstable();
+            s.dedup();
+        }
         let refits: Vec<(usize, f64, Option<T>)> = redo
             .par_iter()
             .map(|&i| {
-                let t = tightened(tolerance[i], round, rounds);
-                refit(i, t).map(|f| (i, t, f))
+                let t = rounds.tightened(tolerance[i], round);
+                let at = segments.get(&i).map_or(&[][..], Vec::as_slice);
+                refit(i, t, &fitted[i], at).map(|f| (i, t, f))
             })
             .collect::<Result<_, _>>()?;
         for (i, t, f) in refits {
@@ -285,17 +360,31 @@ pub(crate) struct Tightened {
 /// wherever the input is.
 pub const LAST_RESORT_M: f64 = 0.01;
 
-/// The tolerance of refit round `round` (0-based, of `rounds`) of a line last fitted at
-/// `tolerance_m`: half of it for the first two rounds (an island off a coast parts at T/2 or
-/// T/4), a quarter after (Chile's 10m fjords at 1 km part only at T/32), and
-/// [`LAST_RESORT_M`] at the last round.
-pub fn tightened(tolerance_m: f64, round: usize, rounds: usize) -> f64 {
-    if round + 1 == rounds {
-        LAST_RESORT_M.min(tolerance_m)
-    } else if round < 2 {
-        0.5 * tolerance_m
-    } else {
-        0.25 * tolerance_m
+/// How many refit rounds `tighten` may spend, and how many of the last ones refit at
+/// [`LAST_RESORT_M`].
+#[derive(Clone, Copy, Debug)]
+pub struct Rounds {
+    /// Refit rounds in all.
+    pub rounds: usize,
+    /// The last rounds of them that refit at [`LAST_RESORT_M`]: a line refitted so lies on its
+    /// input, and may then meet a neighbour not refitted in that round, which one more such
+    /// round parts (shared arcs refitted around their meetings only; see `topology`).
+    pub last_resort: usize,
+}
+
+impl Rounds {
+    /// The tolerance of refit round `round` (0-based) of a line last fitted at `tolerance_m`:
+    /// half of it for the first two rounds (an island off a coast parts at T/2 or T/4), a
+    /// quarter after (Chile's 10m fjords at 1 km part only at T/32), and [`LAST_RESORT_M`] at
+    /// the last [`Rounds::last_resort`] rounds.
+    pub fn tightened(self, tolerance_m: f64, round: usize) -> f64 {
+        if round + self.last_resort >= self.rounds {
+            LAST_RESORT_M.min(tolerance_m)
+        } else if round < 2 {
+            0.5 * tolerance_m
+        } else {
+            0.25 * tolerance_m
+        }
     }
 }
 
@@ -342,6 +431,52 @@ mod tests {
             d.near_pairs(&[0, 1, 2], 1e-6),
             vec![(0, 0), (0, 2), (1, 1), (2, 2)]
         );
+    }
+
+    #[test]
+    fn a_meeting_is_excused_only_near_where_the_input_meets() {
+        // The input ring touches itself at (0.5, 0): a vertex on its own edge. One fit
+        // crosses that edge there; another keeps the touch and crosses it 2.5° away too,
+        // where the input does not meet.
+        let input = ring(&[
+            (0.0, 0.0),
+            (4.0, 0.0),
+            (4.0, 1.0),
+            (1.0, 1.0),
+            (0.5, 0.0),
+            (0.0, 1.0),
+            (0.0, 0.0),
+        ]);
+        let near = ring(&[
+            (0.0, 0.0),
+            (4.0, 0.0),
+            (4.0, 1.0),
+            (1.0, 1.0),
+            (0.5, -0.05),
+            (0.0, 1.0),
+            (0.0, 0.0),
+        ]);
+        let far = ring(&[
+            (0.0, 0.0),
+            (4.0, 0.0),
+            (4.0, 1.0),
+            (3.0, -0.2),
+            (3.0, 1.0),
+            (1.0, 1.0),
+            (0.5, 0.0),
+            (0.0, 1.0),
+            (0.0, 0.0),
+        ]);
+        let before = Drawn::new(vec![&input], Some(7));
+        assert!(before.meet(0, 0).in_plane);
+        let grow = 0.3_f64.to_radians();
+        let (near, far) = (
+            Drawn::new(vec![&near], Some(7)),
+            Drawn::new(vec![&far], Some(7)),
+        );
+        assert!(near.meet(0, 0).in_plane && far.meet(0, 0).in_plane);
+        assert!(near.meets_only_near(&before, 0, 0, grow));
+        assert!(!far.meets_only_near(&before, 0, 0, grow));
     }
 
     #[test]

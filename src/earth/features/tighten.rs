@@ -4,7 +4,7 @@
 use super::*;
 use crate::earth::lonlat::m_to_rad;
 use crate::earth::topology::TIGHTEN_ROUNDS;
-use crate::earth::validity::{tighten, Drawn};
+use crate::earth::validity::{tighten, Drawn, Rounds};
 use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
 
 /// Validity: the fitted rings of one feature (exterior rings, holes, the polygons of a
@@ -45,10 +45,13 @@ pub(super) fn tighten_crossing_rings(
         &input,
         &pairs,
         *tolerance_m,
-        TIGHTEN_ROUNDS,
+        Rounds {
+            rounds: TIGHTEN_ROUNDS,
+            last_resort: 1,
+        },
         outputs,
         |o: &CurveOutput| o.points.as_slice(),
-        |i, t| {
+        |i, t, _, _| {
             let _scope = job.cancel.enter();
             let c = &jobs[i];
             let mut out =

@@ -14,10 +14,180 @@ pub(super) fn fit_arc(
     parameterization: crate::sphere::Parameterization,
     job: &Job,
 ) -> Result<FittedArc, EarthError> {
+    let (rows, smooth_seam) = arc_rows(points_in, closed)?;
+    fit_rows(
+        rows,
+        closed,
+        smooth_seam,
+        tolerance,
+        degree_cap,
+        parameterization,
+        job,
+    )
+}
+
+/// Arc `old` (fitted to `points_in`) refitted to `tolerance` only around its segments `at`
+/// (ascending indices of `old.dense`: from point `i` to `i + 1`), where it meets another arc
+/// or itself: each run of meeting segments, with `margin` old vertices on either side, is
+/// refitted as a polyline pinned at the old vertices that bound it, through the positions
+/// between them, and spliced in; the rest of the arc is kept as it was.
+///
+/// Refitting a whole arc for one meeting stored a long coast's every stretch at the tighter
+/// tolerance: on world-atlas countries-10m at 1 km the coverage stored 283,794 numbers with
+/// whole refits and 234,800 with none (docs/speed.md, "seventh session").
+///
+/// `None` when the arc cannot be refitted so: it is not a polyline on uniform knots written
+/// as its vertices, a window holds no position, or the refit is not such a polyline.
+pub(super) fn refit_around(
+    points_in: &[[f64; 3]],
+    closed: bool,
+    old: &FittedArc,
+    (at, margin): (&[usize], usize),
+    tolerance: ToleranceRule,
+    parameterization: crate::sphere::Parameterization,
+    job: &Job,
+) -> Result<Option<FittedArc>, EarthError> {
+    let m = old.control_ll.len();
+    let written_as_vertices = old.spline.degree() == 1
+        && old.spline.has_clamped_uniform_knots()
+        && old.control_ll == old.dense_ll;
+    if at.is_empty() || !written_as_vertices || at.iter().any(|&s| s + 1 >= m) {
+        return Ok(None);
+    }
+    let (rows, _) = arc_rows(points_in, closed)?;
+    let n = rows.len();
+    if old.params.len() != n {
+        return Ok(None);
+    }
+    // The windows of old vertices [lo, hi] refitted, merged where they overlap.
+    let mut windows: Vec<(usize, usize)> = Vec::new();
+    for &s in at {
+        let (lo, hi) = (s.saturating_sub(margin), (s + 1 + margin).min(m - 1));
+        match windows.last_mut() {
+            Some(w) if lo <= w.1 => w.1 = w.1.max(hi),
+            _ => windows.push((lo, hi)),
+        }
+    }
+    let ctrl = old.spline.control_points();
+    let vertex = |k: usize| -> [f64; 3] {
+        let c = ctrl.get(k);
+        [c[0], c[1], c[2]]
+    };
+    // Each position's place along the old polyline: segment index plus the share of it.
+    let last = (m - 1) as f64;
+    let pos: Vec<f64> = old.params.iter().map(|t| t * last).collect();
+    let mut out: Vec<[f64; 3]> = Vec::with_capacity(m);
+    let mut out_ll: Vec<[f64; 2]> = Vec::with_capacity(m);
+    let mut new_pos = vec![0.0; n];
+    // New place minus old place, past the windows spliced so far.
+    let mut shift = 0.0;
+    let (mut v, mut r) = (0, 0);
+    for &(lo, hi) in &windows {
+        for k in v..lo {
+            out.push(vertex(k));
+            out_ll.push(old.control_ll[k]);
+        }
+        while r < n && pos[r] <= lo as f64 {
+            new_pos[r] = pos[r] + shift;
+            r += 1;
+        }
+        let start = r;
+        while r < n && pos[r] < hi as f64 {
+            r += 1;
+        }
+        // The window's line: its first vertex, its positions (each once), its last vertex.
+        let (first, end) = (vertex(lo), vertex(hi));
+        let mut sub_rows = vec![first];
+        let mut sub_of = Vec::with_capacity(r - start);
+        for row in &rows[start..r] {
+            if row != sub_rows.last().expect("the first vertex") && *row != end {
+                sub_rows.push(*row);
+            }
+            sub_of.push(sub_rows.len() - 1);
+        }
+        sub_rows.push(end);
+        if sub_rows.len() < 3 {
+            return Ok(None);
+        }
+        let sub = fit_rows(sub_rows, false, false, tolerance, 1, parameterization, job)?;
+        let ms = sub.control_ll.len();
+        if sub.spline.degree() != 1 || !sub.spline.has_clamped_uniform_knots() || ms < 2 {
+            return Ok(None);
+        }
+        let base = out.len() as f64;
+        // The window's ends are the old vertices exactly; its interior is the refit's.
+        out.push(first);
+        out_ll.push(old.control_ll[lo]);
+        let sub_ctrl = sub.spline.control_points();
+        for k in 1..ms - 1 {
+            let c = sub_ctrl.get(k);
+            out.push([c[0], c[1], c[2]]);
+            out_ll.push(sub.control_ll[k]);
+        }
+        let sub_last = (ms - 1) as f64;
+        for (i, &k) in (start..r).zip(&sub_of) {
+            new_pos[i] = base + sub.params[k] * sub_last;
+        }
+        shift = base + sub_last - hi as f64;
+        v = hi;
+    }
+    for k in v..m {
+        out.push(vertex(k));
+        out_ll.push(old.control_ll[k]);
+    }
+    while r < n {
+        new_pos[r] = pos[r] + shift;
+        r += 1;
+    }
+    let new_last = (out.len() - 1) as f64;
+    let mut params: Vec<f64> = new_pos
+        .iter()
+        .map(|p| (p / new_last).clamp(0.0, 1.0))
+        .collect();
+    params[0] = 0.0;
+    params[n - 1] = 1.0;
+    for i in 1..n {
+        params[i] = params[i].max(params[i - 1]);
+    }
+    let knots = crate::sphere::curve::bspline::clamped_uniform_knots(out.len(), 1);
+    let spline = PointSet::try_from_rows(&out)
+        .and_then(|c| SphericalBSpline::try_new(1, knots, c))
+        .map_err(|e| sphere_error(e, "", &[]))?;
+    let line = ArcLine::new(&rows, closed, tolerance, job)?;
+    let measured = line.measure(&spline, &params)?;
+    let f = line.finish(ArcCurve {
+        spline,
+        control_ll: out_ll,
+        rule: old.knot_rule,
+        measured,
+        seam: old.seam,
+        params,
+    })?;
+    // A window pinned at the old vertices can fold back across the arc's own segments there.
+    // A new meeting of an arc with itself is not always judged new (an input arc that touches
+    // itself anywhere excuses its fits' meeting themselves anywhere), so the splice is kept
+    // only when the arc meets itself at no more segments than before (world-atlas
+    // countries-10m at 5 km: India, Sweden, Myanmar and Venezuela were written invalid
+    // without this).
+    if self_meetings(&f.dense, job).len() > self_meetings(&old.dense, job).len() {
+        return Ok(None);
+    }
+    Ok(Some(f))
+}
+
+/// Where a fitted arc's `dense` points meet themselves as written (pairs of segments).
+pub(super) fn self_meetings(dense: &[[f64; 3]], job: &Job) -> Vec<(usize, usize)> {
+    crate::earth::validity::Drawn::new(vec![dense], Some(job.output.precision))
+        .meeting_segments(0, 0)
+}
+
+/// The positions an arc is fitted through: an open arc's as they are; a closed one's started
+/// at its sharpest corner (a C0 seam there costs nothing), with whether that corner is
+/// smooth.
+fn arc_rows(points_in: &[[f64; 3]], closed: bool) -> Result<(Vec<[f64; 3]>, bool), EarthError> {
     let mut rows = points_in.to_vec();
     let mut smooth_seam = false;
     if closed {
-        // Start the closed curve at its sharpest corner: a C0 seam there costs nothing.
         rows.pop();
         let n = rows.len();
         let mut cyc = Vec::with_capacity(n + 2);
@@ -34,16 +204,23 @@ pub(super) fn fit_arc(
         rows.push(rows[0]);
         smooth_seam = turn < CORNER_ANGLE_RAD;
     }
-    let n_in = if closed { rows.len() - 1 } else { rows.len() };
-    let points = PointSet::try_from_rows(&rows).map_err(|e| sphere_error(e, "", &[]))?;
+    Ok((rows, smooth_seam))
+}
+
+/// [`fit_arc`] on the arc's positions as [`arc_rows`] gives them.
+fn fit_rows(
+    rows: Vec<[f64; 3]>,
+    closed: bool,
+    smooth_seam: bool,
+    tolerance: ToleranceRule,
+    degree_cap: usize,
+    parameterization: crate::sphere::Parameterization,
+    job: &Job,
+) -> Result<FittedArc, EarthError> {
+    let line = ArcLine::new(&rows, closed, tolerance, job)?;
+    let points = &line.points;
     let output = &job.output;
-    // The grid the arc is written on: the rule's (a coverage's TopoJSON grid, or the decimal
-    // one when that cannot draw the coverage's arcs apart; see `fitting`).
-    let round =
-        |x: f64| crate::earth::job::round_to_grid(x, output.precision, tolerance.grid_multiple);
-    let tol_rad = tolerance.tol_rad;
-    let line_length = polyline_length(&points);
-    let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
+    let round = |x: f64| line.round(x);
     // Most arcs' best curve is a polyline, written as it is: it may aim at the tolerance less
     // its vertices' rounding, and fit its vertices to all of that first; smooth curves keep
     // the rest of the margin (world-atlas 50m countries at 1 km: 112,174 -> 97,716 stored
@@ -65,26 +242,8 @@ pub(super) fn fit_arc(
         ..ToleranceOptions::default()
     };
     topts.degrees.retain(|&p| p <= degree_cap);
-    // The max error at the positions, and the two-way distance and the curve's length.
-    let measure = |spline: &SphericalBSpline, params: &[f64]| -> Result<Measured, EarthError> {
-        let errs = pointwise_errors(spline, &points, params);
-        let max = errs.iter().fold(0.0f64, |a, &b| a.max(b));
-        let tw = two_way_distance(
-            spline,
-            &points,
-            params,
-            &TwoWayOptions::default()
-                .with_precision_rad(0.01 * tol_rad)
-                .with_max_evaluations(4_000_000 + 400 * points.len()),
-        )
-        .map_err(|e| sphere_error(e, "", &[]))?;
-        Ok(Measured {
-            max_rad: max,
-            two_way_rad: tw.upper_rad,
-            curve_length_rad: tw.curve_length_rad,
-        })
-    };
-    let met = |m: &Measured| tolerance.met(m.worst_rad(), m.curve_length_rad, line_length);
+    let measure = |spline: &SphericalBSpline, params: &[f64]| line.measure(spline, params);
+    let met = |m: &Measured| line.met(m);
     let mut attempt = 0;
     // First a polyline aiming nearer the tolerance, kept when its rounded vertices still meet
     // it as written (rounding moves most vertices far less than its bound); smooth curves aim
@@ -94,28 +253,36 @@ pub(super) fn fit_arc(
         target = tolerance.snap_target_rad();
         topts.smooth_margin_rad = target - tolerance.first_target_rad();
     }
-    let (spline, control_ll, rule, measured, seam) = loop {
-        let r = fit_to_tolerance(&points, None, target, &topts)
-            .map_err(|e| sphere_error(e, "", &[]))?;
+    let curve = loop {
+        let r =
+            fit_to_tolerance(points, None, target, &topts).map_err(|e| sphere_error(e, "", &[]))?;
         let (rounded, ll) =
             round_spline_with(&r.spline, &round).map_err(|e| sphere_error(e, "", &[]))?;
         let m = measure(&rounded, &r.parameters)?;
-        let mut best = (rounded, ll, r.knot_rule, m, closed.then_some("corner"));
+        let mut best = (rounded, ll, m, closed.then_some("corner"));
         if closed && smooth_seam && r.spline.degree() >= 2 {
             // A C1 seam where the ring is smooth, kept when the tolerance still holds.
             if let Ok(c1) = close_seam(&r.spline, true) {
                 if let Ok((rc, llc)) = round_spline_with(&c1, &round) {
                     let m2 = measure(&rc, &r.parameters)?;
                     if met(&m2) {
-                        best = (rc, llc, r.knot_rule, m2, Some("smooth"));
+                        best = (rc, llc, m2, Some("smooth"));
                     }
                 }
             }
         }
+        let curve = |(spline, control_ll, measured, seam): (_, _, Measured, _)| ArcCurve {
+            spline,
+            control_ll,
+            rule: r.knot_rule,
+            measured,
+            seam,
+            params: r.parameters.clone(),
+        };
         if snap_try {
             snap_try = false;
-            if met(&best.3) {
-                break best;
+            if met(&best.2) {
+                break curve(best);
             }
             // Over as written: its vertices on the grid corners that keep its points closest
             // rather than the nearest ones, else the whole arc again at the target its
@@ -123,108 +290,204 @@ pub(super) fn fit_arc(
             if let Some((snapped, ll)) = super::snap::snap_polyline(
                 &r.spline,
                 &best.1,
-                &points,
+                points,
                 &r.parameters,
                 output.precision,
                 tolerance.grid_multiple,
             ) {
                 let m = measure(&snapped, &r.parameters)?;
                 if met(&m) {
-                    break (snapped, ll, r.knot_rule, m, best.4);
+                    break curve((snapped, ll, m, best.3));
                 }
             }
             target = tolerance.polyline_target_rad();
             topts.smooth_margin_rad = target - tolerance.first_target_rad();
             continue;
         }
-        let worst = best.3.worst_rad();
+        let worst = best.2.worst_rad();
         if let Some(lower) = tolerance.retry_target_rad(target, worst, r.tolerance_met, attempt) {
             target = lower;
             attempt += 1;
             continue;
         }
-        break best;
+        break curve(best);
     };
-    // A closed arc is a whole ring: at least 4 positions (RFC 7946 §3.1.6).
-    let sampling = match output.sampling {
-        crate::earth::Sampling::Samples(n) if closed && n < 4 => crate::earth::Sampling::Samples(4),
-        crate::earth::Sampling::SpacingM(spacing_m) if closed => {
-            crate::earth::Sampling::SpacingAndSamples {
-                spacing_m,
-                samples: 4,
-            }
-        }
-        s => s,
-    };
-    let dense = sample(
-        &spline,
-        sampling,
-        dense_margin,
-        sampling_start(spline.control_points().len()),
-        job.limits.max_samples,
-    )
-    .map_err(|e| EarthError::new("", e.problem))?;
-    let mut pts = dense.points.clone();
-    let last = pts.len() - 1;
-    // The ends are the (pinned, rounded) end control points exactly.
-    let cps = spline.control_points();
-    let (c0, c1) = (cps.get(0), cps.get(cps.len() - 1));
-    pts[0] = [c0[0], c0[1], c0[2]];
-    pts[last] = [c1[0], c1[1], c1[2]];
-    let mut dense_ll: Vec<[f64; 2]> = pts
-        .iter()
-        .map(|p| {
-            let (lon, lat) = unit_to_lonlat(p);
-            [round(lon), round(lat)]
-        })
-        .collect();
-    dense_ll[0] = control_ll[0];
-    dense_ll[last] = control_ll[control_ll.len() - 1];
-    if closed {
-        dense_ll[last] = dense_ll[0];
-        pts[last] = pts[0];
-    }
-    // Neighbours that round to one position are written once: readers that join arcs (GDAL,
-    // topojson-client) would otherwise keep a zero-length edge the GeoJSON output does not
-    // have. The ends stay (a closed arc keeps both copies of its first position).
-    let mut keep = vec![true; dense_ll.len()];
-    let mut prev = 0;
-    for i in 1..dense_ll.len() {
-        if dense_ll[i] == dense_ll[prev] && i != last {
-            keep[i] = false;
-        } else {
-            if dense_ll[i] == dense_ll[prev] && prev != 0 {
-                keep[prev] = false;
-            }
-            prev = i;
-        }
-    }
-    if keep.iter().any(|k| !k) {
-        let mut k = keep.iter();
-        dense_ll.retain(|_| *k.next().expect("one flag a position"));
-        let mut k = keep.iter();
-        pts.retain(|_| *k.next().expect("one flag a position"));
-    }
-    let stored = stored_numbers(&spline, rule);
-    let met = met(&measured);
+    line.finish(curve)
+}
 
-    Ok(FittedArc {
-        stored_numbers: stored,
-        knot_rule: rule,
-        control_ll,
-        dense: pts,
-        dense_ll,
-        max_error_rad: measured.max_rad,
-        two_way_rad: measured.two_way_rad,
-        curve_length_rad: measured.curve_length_rad,
-        line_length_rad: line_length,
-        tolerance_met: met,
-        input_points: n_in,
-        seam,
-        sampling_deviation_rad: dense.max_deviation_rad,
-        tolerance_rad: tol_rad,
-        spline,
-    })
+/// A fitted arc's curve as returned, before it is sampled.
+struct ArcCurve {
+    /// The spline, its control points rounded.
+    spline: SphericalBSpline,
+    /// Its control points as written.
+    control_ll: Vec<[f64; 2]>,
+    rule: KnotRule,
+    measured: Measured,
+    seam: Option<&'static str>,
+    /// The parameters of the arc's positions on it.
+    params: Vec<f64>,
+}
+
+/// An arc's positions (as [`arc_rows`] gives them) and what measuring and writing a curve
+/// fitted to them needs.
+struct ArcLine<'a> {
+    points: PointSet,
+    closed: bool,
+    tolerance: ToleranceRule,
+    job: &'a Job,
+    line_length: f64,
+    /// Input vertices (a closed arc's first one once).
+    n_in: usize,
+}
+
+impl<'a> ArcLine<'a> {
+    fn new(
+        rows: &[[f64; 3]],
+        closed: bool,
+        tolerance: ToleranceRule,
+        job: &'a Job,
+    ) -> Result<Self, EarthError> {
+        let points = PointSet::try_from_rows(rows).map_err(|e| sphere_error(e, "", &[]))?;
+        Ok(ArcLine {
+            line_length: polyline_length(&points),
+            n_in: if closed { rows.len() - 1 } else { rows.len() },
+            points,
+            closed,
+            tolerance,
+            job,
+        })
+    }
+
+    /// A longitude or latitude on the grid the arc is written on: the rule's (a coverage's
+    /// TopoJSON grid, or the decimal one when that cannot draw the coverage's arcs apart; see
+    /// `fitting`).
+    fn round(&self, x: f64) -> f64 {
+        crate::earth::job::round_to_grid(x, self.job.output.precision, self.tolerance.grid_multiple)
+    }
+
+    /// The max error at the positions, and the two-way distance and the curve's length.
+    fn measure(&self, spline: &SphericalBSpline, params: &[f64]) -> Result<Measured, EarthError> {
+        let points = &self.points;
+        let errs = pointwise_errors(spline, points, params);
+        let max = errs.iter().fold(0.0f64, |a, &b| a.max(b));
+        let tw = two_way_distance(
+            spline,
+            points,
+            params,
+            &TwoWayOptions::default()
+                .with_precision_rad(0.01 * self.tolerance.tol_rad)
+                .with_max_evaluations(4_000_000 + 400 * points.len()),
+        )
+        .map_err(|e| sphere_error(e, "", &[]))?;
+        Ok(Measured {
+            max_rad: max,
+            two_way_rad: tw.upper_rad,
+            curve_length_rad: tw.curve_length_rad,
+        })
+    }
+
+    fn met(&self, m: &Measured) -> bool {
+        self.tolerance
+            .met(m.worst_rad(), m.curve_length_rad, self.line_length)
+    }
+
+    /// The arc as returned: `curve` sampled, its dense points rounded.
+    fn finish(&self, curve: ArcCurve) -> Result<FittedArc, EarthError> {
+        let ArcCurve {
+            spline,
+            control_ll,
+            rule,
+            measured,
+            seam,
+            params,
+        } = curve;
+        let (closed, job) = (self.closed, self.job);
+        let round = |x: f64| self.round(x);
+        let dense_margin = AUTO_DEVIATION_FRACTION * self.tolerance.tol_rad;
+        // A closed arc is a whole ring: at least 4 positions (RFC 7946 §3.1.6).
+        let sampling = match job.output.sampling {
+            crate::earth::Sampling::Samples(n) if closed && n < 4 => {
+                crate::earth::Sampling::Samples(4)
+            }
+            crate::earth::Sampling::SpacingM(spacing_m) if closed => {
+                crate::earth::Sampling::SpacingAndSamples {
+                    spacing_m,
+                    samples: 4,
+                }
+            }
+            s => s,
+        };
+        let dense = sample(
+            &spline,
+            sampling,
+            dense_margin,
+            sampling_start(spline.control_points().len()),
+            job.limits.max_samples,
+        )
+        .map_err(|e| EarthError::new("", e.problem))?;
+        let mut pts = dense.points.clone();
+        let last = pts.len() - 1;
+        // The ends are the (pinned, rounded) end control points exactly.
+        let cps = spline.control_points();
+        let (c0, c1) = (cps.get(0), cps.get(cps.len() - 1));
+        pts[0] = [c0[0], c0[1], c0[2]];
+        pts[last] = [c1[0], c1[1], c1[2]];
+        let mut dense_ll: Vec<[f64; 2]> = pts
+            .iter()
+            .map(|p| {
+                let (lon, lat) = unit_to_lonlat(p);
+                [round(lon), round(lat)]
+            })
+            .collect();
+        dense_ll[0] = control_ll[0];
+        dense_ll[last] = control_ll[control_ll.len() - 1];
+        if closed {
+            dense_ll[last] = dense_ll[0];
+            pts[last] = pts[0];
+        }
+        // Neighbours that round to one position are written once: readers that join arcs (GDAL,
+        // topojson-client) would otherwise keep a zero-length edge the GeoJSON output does not
+        // have. The ends stay (a closed arc keeps both copies of its first position).
+        let mut keep = vec![true; dense_ll.len()];
+        let mut prev = 0;
+        for i in 1..dense_ll.len() {
+            if dense_ll[i] == dense_ll[prev] && i != last {
+                keep[i] = false;
+            } else {
+                if dense_ll[i] == dense_ll[prev] && prev != 0 {
+                    keep[prev] = false;
+                }
+                prev = i;
+            }
+        }
+        if keep.iter().any(|k| !k) {
+            let mut k = keep.iter();
+            dense_ll.retain(|_| *k.next().expect("one flag a position"));
+            let mut k = keep.iter();
+            pts.retain(|_| *k.next().expect("one flag a position"));
+        }
+        let stored = stored_numbers(&spline, rule);
+        let met = self.met(&measured);
+
+        Ok(FittedArc {
+            stored_numbers: stored,
+            knot_rule: rule,
+            control_ll,
+            dense: pts,
+            dense_ll,
+            max_error_rad: measured.max_rad,
+            two_way_rad: measured.two_way_rad,
+            curve_length_rad: measured.curve_length_rad,
+            line_length_rad: self.line_length,
+            tolerance_met: met,
+            input_points: self.n_in,
+            seam,
+            sampling_deviation_rad: dense.max_deviation_rad,
+            tolerance_rad: self.tolerance.tol_rad,
+            spline,
+            params,
+        })
+    }
 }
 
 /// What is measured of an arc's curve as returned.

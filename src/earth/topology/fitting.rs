@@ -1,6 +1,6 @@
 //! A coverage's arcs fitted: every arc fitted once ([`fit_arc`]), then, for validity, arcs
 //! of one feature or meeting at a junction that meet each other (or an arc itself) where the
-//! input did not, on the sphere or as written, are refitted tighter, up to [`TIGHTEN_ROUNDS`]
+//! input did not, on the sphere or as written, are refitted tighter, up to [`COVERAGE_ROUNDS`]
 //! times ([`crate::earth::validity`]).
 
 use super::*;
@@ -13,7 +13,7 @@ pub(super) struct FittedArcs {
     pub(super) arcs: Vec<FittedArc>,
     /// How many arcs were fitted to a tighter tolerance than the job's.
     pub(super) tightened: usize,
-    /// The pairs of arcs that still meet after [`TIGHTEN_ROUNDS`].
+    /// The pairs of arcs that still meet after [`COVERAGE_ROUNDS`].
     pub(super) crossings_left: Vec<(usize, usize)>,
     /// Decimal steps in a step of the grid every arc lies on: the rule's, or 1 when arcs fitted
     /// on a coarser grid still met and were refitted on the decimal one.
@@ -52,6 +52,56 @@ impl ArcFitting<'_> {
             self.job,
         )
         .map_err(|e| EarthError::new(pointer.clone(), e.problem))
+    }
+
+    /// Arc `a` (fitted as `old`) refitted to `tolerance` around its segments `at` only
+    /// ([`refit_around`]), when that can be done and the arc then meets `job_tolerance`.
+    ///
+    /// The windows refitted grow as the tolerance falls, round by round: a meeting that a
+    /// window pinned at the old vertices next to it did not part may need more room (T/2: one
+    /// vertex each side, T/4: two, T/16: four, T/64: six). The last round
+    /// ([`validity::LAST_RESORT_M`]) refits the whole arc, as close to its input as it is
+    /// written, so the output is valid wherever the input is.
+    fn refit_around(
+        &self,
+        a: usize,
+        old: &FittedArc,
+        at: &[usize],
+        tolerance: ToleranceRule,
+        job_tolerance: &ToleranceRule,
+    ) -> Result<Option<FittedArc>, EarthError> {
+        if tolerance.tolerance_m <= validity::LAST_RESORT_M {
+            return Ok(None);
+        }
+        let margin = (job_tolerance.tolerance_m / tolerance.tolerance_m)
+            .log2()
+            .ceil()
+            .max(1.0) as usize;
+        let _scope = self.job.cancel.enter();
+        let pointer = &self.sources[self.arc_ring[a]].pointer;
+        // Where the arc meets itself too: such a meeting is excused when its input touches
+        // itself anywhere, and a whole refit used to part it by the way (world-atlas
+        // countries-10m at 5 km: India's, Sweden's, Myanmar's and Venezuela's coasts).
+        let mut at = at.to_vec();
+        at.extend(
+            self_meetings(&old.dense, self.job)
+                .into_iter()
+                .flat_map(|(i, j)| [i, j]),
+        );
+        at.sort_unstable();
+        at.dedup();
+        let at = &at;
+        let f = refit_around(
+            &self.input_arcs[a],
+            self.graph.arcs[a].closed,
+            old,
+            (at, margin),
+            tolerance,
+            self.parameterization,
+            self.job,
+        )
+        .map_err(|e| EarthError::new(pointer.clone(), e.problem))?;
+        Ok(f.filter(|f| tolerance_met_by(f, job_tolerance)))
     }
 
     /// Fits the arcs `which` in parallel, each to its tolerance; the first error in order wins.
@@ -105,7 +155,7 @@ pub(super) fn fit_arcs(
 }
 
 /// Refits the arcs that meet where their input did not ([`crate::earth::validity::tighten`]),
-/// up to [`TIGHTEN_ROUNDS`] times; a refit arc meets the tolerance when it is within the job's.
+/// up to [`COVERAGE_ROUNDS`] times; a refit arc meets the tolerance when it is within the job's.
 fn tighten(
     fitting: &ArcFitting<'_>,
     mut fitted: Vec<FittedArc>,
@@ -130,12 +180,18 @@ fn tighten(
             &input,
             &pairs,
             tolerance.tolerance_m,
-            TIGHTEN_ROUNDS,
+            COVERAGE_ROUNDS,
             fitted,
             |f: &FittedArc| f.dense.as_slice(),
-            |a, t| {
+            |a, t, old: &FittedArc, at: &[usize]| {
                 let rule =
                     ToleranceRule::new(t, tolerance.precision).with_grid_multiple(grid_multiple);
+                if let Some(f) = fitting.refit_around(a, old, at, rule, &tolerance)? {
+                    return Ok(Some(FittedArc {
+                        tolerance_met: true,
+                        ..f
+                    }));
+                }
                 let f = fitting.fit(a, rule)?;
                 Ok::<_, EarthError>(Some(FittedArc {
                     tolerance_met: tolerance_met_by(&f, &tolerance),

@@ -119,15 +119,75 @@ fn arcs_that_cross_their_neighbours_are_refitted_tighter() {
         .iter()
         .filter(|a| a.tolerance_rad < m_to_rad(1500.0))
         .collect();
+    // Refitted around their meetings only: within the job's tolerance everywhere.
     assert!(tightened
         .iter()
-        .all(|a| a.max_error_rad.max(a.two_way_rad) <= a.tolerance_rad));
+        .all(|a| a.max_error_rad.max(a.two_way_rad) <= m_to_rad(1500.0)));
     assert_eq!(
         c.features[1]["properties"]["fit"]["tightened_arcs"]
             .as_u64()
             .unwrap() as usize,
         tightened.len()
     );
+}
+
+#[test]
+fn an_arc_is_refitted_only_around_where_it_meets() {
+    // A jagged coast 330 km long fitted at 300 m as a polyline, then refitted at 75 m around
+    // two of its segments: its vertices outside the two windows stay where they were, the
+    // windows' positions are within 75 m of the new arc, and the whole arc within 300 m.
+    let coast: Vec<[f64; 3]> = (0..=600)
+        .map(|i| {
+            let t = i as f64 / 600.0;
+            lonlat_to_unit(
+                3.0 * t,
+                0.03 * (11.0 * t).sin() + 0.004 * (i as f64 * 2.3).sin(),
+            )
+        })
+        .collect();
+    let j = job(300.0);
+    let rule = ToleranceRule::new(300.0, j.output.precision);
+    let parameterization = FitOptions::faithful().parameterization;
+    let old = fit_arc(&coast, false, rule, 3, parameterization, &j).unwrap();
+    assert_eq!(old.spline.degree(), 1);
+    let m = old.control_ll.len();
+    assert!(m > 40, "{m} vertices");
+    let (s1, s2) = (m / 4, m / 2);
+    let tight = ToleranceRule::new(75.0, j.output.precision);
+    let new = refit_around(
+        &coast,
+        false,
+        &old,
+        (&[s1, s2], 1),
+        tight,
+        parameterization,
+        &j,
+    )
+    .unwrap()
+    .expect("a polyline written as its vertices is refitted around its segments");
+    let n = new.control_ll.len();
+    // The windows are old vertices s - 1 ..= s + 2, their ends kept.
+    assert_eq!(new.control_ll[..s1], old.control_ll[..s1]);
+    assert_eq!(new.control_ll[n - (m - s2 - 2)..], old.control_ll[s2 + 2..]);
+    assert_ne!(new.control_ll, old.control_ll);
+    assert!(new.max_error_rad.max(new.two_way_rad) <= m_to_rad(300.0));
+    // The positions between the first window's ends are within 75 m of the new arc.
+    let (lo, hi) = (old.control_ll[s1 - 1], old.control_ll[s1 + 2]);
+    let dense: Vec<[f64; 3]> = new.dense.clone();
+    let inside = coast.iter().filter(|p| {
+        let (lon, _) = crate::earth::lonlat::unit_to_lonlat(*p);
+        lon > lo[0] && lon < hi[0]
+    });
+    let mut count = 0;
+    for p in inside {
+        let d = dense
+            .windows(2)
+            .map(|w| distance_to_arc(p, &w[0], &w[1]))
+            .fold(f64::INFINITY, f64::min);
+        assert!(d <= m_to_rad(75.0) * 1.01, "{} m", d / m_to_rad(1.0));
+        count += 1;
+    }
+    assert!(count >= 2, "{count} positions");
 }
 
 #[test]

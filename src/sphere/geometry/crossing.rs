@@ -196,7 +196,43 @@ pub fn polylines_meet_boxed(
         return false;
     }
     let (tp, tq) = (bp.top(), bq.top());
-    runs_cross(Pair { p, q, same, test }, bp, bq, (tp, 0), (tq, 0))
+    runs_cross(
+        Pair { p, q, same, test },
+        bp,
+        bq,
+        (tp, 0),
+        (tq, 0),
+        &mut |_, _| true,
+    )
+}
+
+/// Every pair `(i, j)` of a segment `i` (from `p[i]` to `p[i + 1]`) and a segment `j` of `q`
+/// that meet, as [`polylines_meet_boxed`] judges them (with `same`, each pair once, `i < j`):
+/// where two lines meet, for a caller that mends them there.
+pub fn meeting_segments_boxed(
+    (p, bp): (&[[f64; 3]], &RunBoxes),
+    (q, bq): (&[[f64; 3]], &RunBoxes),
+    same: bool,
+    test: SegmentTest,
+) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    if p.len() < 2 || q.len() < 2 {
+        return out;
+    }
+    let (tp, tq) = (bp.top(), bq.top());
+    let mut collect = |i: usize, j: usize| {
+        out.push((i, j));
+        false
+    };
+    runs_cross(
+        Pair { p, q, same, test },
+        bp,
+        bq,
+        (tp, 0),
+        (tq, 0),
+        &mut collect,
+    );
+    out
 }
 
 /// The two polylines compared, whether they are one, and how segments are judged.
@@ -208,13 +244,15 @@ struct Pair<'a> {
     test: SegmentTest,
 }
 
-/// Whether a segment of run `(lp, ip)` of `p` crosses one of run `(lq, iq)` of `q`.
+/// Visits the pairs `(i, j)` of a segment `i` of run `(lp, ip)` of `p` and a segment `j` of
+/// run `(lq, iq)` of `q` that meet, in order, until `found` returns true; whether it did.
 fn runs_cross(
     pair: Pair<'_>,
     bp: &RunBoxes,
     bq: &RunBoxes,
     (lp, ip): (usize, usize),
     (lq, iq): (usize, usize),
+    found: &mut dyn FnMut(usize, usize) -> bool,
 ) -> bool {
     let Pair { p, q, same, test } = pair;
     // Within one polyline only pairs j >= i + 2 count.
@@ -231,19 +269,19 @@ fn runs_cross(
         if a == c || a == d || b == c || b == d {
             return false;
         }
-        return (test.meets)(a, b, c, d);
+        return (test.meets)(a, b, c, d) && found(i, j);
     }
     // Split the larger run (the one higher up); its halves, when there.
     if lp >= lq {
         (0..2)
             .map(|h| 2 * ip + h)
             .filter(|&i| i < bp.levels[lp - 1].len())
-            .any(|i| runs_cross(pair, bp, bq, (lp - 1, i), (lq, iq)))
+            .any(|i| runs_cross(pair, bp, bq, (lp - 1, i), (lq, iq), found))
     } else {
         (0..2)
             .map(|h| 2 * iq + h)
             .filter(|&j| j < bq.levels[lq - 1].len())
-            .any(|j| runs_cross(pair, bp, bq, (lp, ip), (lq - 1, j)))
+            .any(|j| runs_cross(pair, bp, bq, (lp, ip), (lq - 1, j), found))
     }
 }
 
@@ -302,13 +340,22 @@ mod tests {
 
     /// Every pair of segments tested, as the run boxes must agree with.
     fn brute_force(p: &[[f64; 3]], q: &[[f64; 3]], same: bool) -> bool {
-        (0..p.len().saturating_sub(1)).any(|i| {
+        !every_crossing(p, q, same).is_empty()
+    }
+
+    /// Every crossing pair of segments, found by testing each pair, in order.
+    fn every_crossing(p: &[[f64; 3]], q: &[[f64; 3]], same: bool) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        for i in 0..p.len().saturating_sub(1) {
             let start = if same { i + 2 } else { 0 };
-            (start..q.len().saturating_sub(1)).any(|j| {
+            for j in start..q.len().saturating_sub(1) {
                 let (a, b, c, d) = (&p[i], &p[i + 1], &q[j], &q[j + 1]);
-                !(a == c || a == d || b == c || b == d) && segments_cross(a, b, c, d)
-            })
-        })
+                if !(a == c || a == d || b == c || b == d) && segments_cross(a, b, c, d) {
+                    out.push((i, j));
+                }
+            }
+        }
+        out
     }
 
     proptest::proptest! {
@@ -338,6 +385,13 @@ mod tests {
                 q[0] = p[p.len() / 2];
             }
             proptest::prop_assert_eq!(polylines_cross(&p, &q, false), brute_force(&p, &q, false));
+            let (bp, bq) = (RunBoxes::of(&p, sagitta), RunBoxes::of(&q, sagitta));
+            let mut found = meeting_segments_boxed((&p, &bp), (&q, &bq), false, GREAT_CIRCLE);
+            found.sort_unstable();
+            proptest::prop_assert_eq!(found, every_crossing(&p, &q, false));
+            let mut found = meeting_segments_boxed((&p, &bp), (&p, &bp), true, GREAT_CIRCLE);
+            found.sort_unstable();
+            proptest::prop_assert_eq!(found, every_crossing(&p, &p, true));
             proptest::prop_assert_eq!(polylines_cross(&p, &p, true), brute_force(&p, &p, true));
             proptest::prop_assert_eq!(polylines_cross(&q, &q, true), brute_force(&q, &q, true));
         }
