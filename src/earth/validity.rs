@@ -292,7 +292,9 @@ pub(crate) fn tighten<T: Send + Sync, E: Send>(
                 // touches itself in one delta excused its fit's folds in another.
                 let before = input.meet(a, b);
                 now.is_new_since(before)
-                    || (before != Meeting::default() && !output.meets_only_near(input, a, b, near))
+                    || (rounds.excused_near_input_only
+                        && before != Meeting::default()
+                        && !output.meets_only_near(input, a, b, near))
             })
             .copied()
             .collect();
@@ -370,6 +372,13 @@ pub struct Rounds {
     /// input, and may then meet a neighbour not refitted in that round, which one more such
     /// round parts (shared arcs refitted around their meetings only; see `topology`).
     pub last_resort: usize,
+    /// A meeting the input has too is excused only near where the input meets
+    /// (`Drawn::meets_only_near`), not anywhere along the two lines: an arc that touches
+    /// itself in one delta then does not excuse its fit's folds in another. For lines
+    /// refitted around their meetings only (a coverage's arcs); a ring fitted per feature is
+    /// refitted whole, and judged so the 10m countries at 1 km stored 30 % more numbers
+    /// (362,252 -> 469,216) for 10 more valid features of 255.
+    pub excused_near_input_only: bool,
 }
 
 impl Rounds {

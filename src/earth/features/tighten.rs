@@ -48,6 +48,7 @@ pub(super) fn tighten_crossing_rings(
         Rounds {
             rounds: TIGHTEN_ROUNDS,
             last_resort: 1,
+            excused_near_input_only: false,
         },
         outputs,
         |o: &CurveOutput| o.points.as_slice(),

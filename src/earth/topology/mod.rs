@@ -54,6 +54,7 @@ pub const TIGHTEN_ROUNDS: usize = 5;
 const COVERAGE_ROUNDS: crate::earth::validity::Rounds = crate::earth::validity::Rounds {
     rounds: TIGHTEN_ROUNDS + 1,
     last_resort: 2,
+    excused_near_input_only: true,
 };
 
 use super::antimeridian;
