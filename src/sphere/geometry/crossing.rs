@@ -187,52 +187,45 @@ pub fn polylines_meet(p: &[[f64; 3]], q: &[[f64; 3]], same: bool, test: SegmentT
 /// As [`polylines_meet`], with each polyline's [`RunBoxes`] built already (by
 /// [`RunBoxes::of`] with `test.margin`).
 pub fn polylines_meet_boxed(
-    (p, bp): (&[[f64; 3]], &RunBoxes),
-    (q, bq): (&[[f64; 3]], &RunBoxes),
+    p: (&[[f64; 3]], &RunBoxes),
+    q: (&[[f64; 3]], &RunBoxes),
     same: bool,
     test: SegmentTest,
 ) -> bool {
-    if p.len() < 2 || q.len() < 2 {
-        return false;
-    }
-    let (tp, tq) = (bp.top(), bq.top());
-    runs_cross(
-        Pair { p, q, same, test },
-        bp,
-        bq,
-        (tp, 0),
-        (tq, 0),
-        &mut |_, _| true,
-    )
+    visit_meetings(p, q, same, test, &mut |_, _| true)
 }
 
 /// Every pair `(i, j)` of a segment `i` (from `p[i]` to `p[i + 1]`) and a segment `j` of `q`
 /// that meet, as [`polylines_meet_boxed`] judges them (with `same`, each pair once, `i < j`):
 /// where two lines meet, for a caller that mends them there.
 pub fn meeting_segments_boxed(
-    (p, bp): (&[[f64; 3]], &RunBoxes),
-    (q, bq): (&[[f64; 3]], &RunBoxes),
+    p: (&[[f64; 3]], &RunBoxes),
+    q: (&[[f64; 3]], &RunBoxes),
     same: bool,
     test: SegmentTest,
 ) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
-    if p.len() < 2 || q.len() < 2 {
-        return out;
-    }
-    let (tp, tq) = (bp.top(), bq.top());
-    let mut collect = |i: usize, j: usize| {
+    visit_meetings(p, q, same, test, &mut |i, j| {
         out.push((i, j));
         false
-    };
-    runs_cross(
-        Pair { p, q, same, test },
-        bp,
-        bq,
-        (tp, 0),
-        (tq, 0),
-        &mut collect,
-    );
+    });
     out
+}
+
+/// Visits the meeting pairs of segments of `p` and `q` in order until `found` returns true;
+/// whether it did.
+fn visit_meetings(
+    (p, bp): (&[[f64; 3]], &RunBoxes),
+    (q, bq): (&[[f64; 3]], &RunBoxes),
+    same: bool,
+    test: SegmentTest,
+    found: &mut dyn FnMut(usize, usize) -> bool,
+) -> bool {
+    if p.len() < 2 || q.len() < 2 {
+        return false;
+    }
+    let (tp, tq) = (bp.top(), bq.top());
+    runs_cross(Pair { p, q, same, test }, bp, bq, (tp, 0), (tq, 0), found)
 }
 
 /// The two polylines compared, whether they are one, and how segments are judged.
