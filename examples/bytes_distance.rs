@@ -8,11 +8,12 @@
 //! (mapshaper's, a TopoJSON read back) without knowing which stretch matches which, and is
 //! never above the ordered distance. Segments along ±180° or from a pole (those of polygons
 //! cut at the antimeridian or closed along a pole, which the other file may draw uncut) are
-//! measured at their vertices only. Each sample's nearest segment is looked for near the
-//! previous sample's first (a window of 64 segments) and among all of them whenever the
-//! window's nearest is farther than the largest distance so far (or than the tolerance), so
-//! the maximum is exact: a window that holds only another ring's segments can no longer
-//! inflate it (it did, by up to 209 m on the 50m countries, before 2026-12-05).
+//! measured at their vertices only, and the poles themselves not at all. Each sample's nearest
+//! segment is looked for near the previous sample's first (a window of 64 segments) and among
+//! all of them whenever the window's nearest is farther than the largest distance so far (or
+//! than the tolerance), so the maximum is exact: a window that holds only another ring's
+//! segments can no longer inflate it (it did, by up to 209 m on the 50m countries, before
+//! 2026-12-05).
 //!
 //! `cargo run --release --example bytes_distance -- A.geojson B.geojson TOLERANCE_M`
 
@@ -129,11 +130,15 @@ fn directed(from: &[Vec<[f64; 3]>], to: &[Vec<[f64; 3]>], tol: f64) -> f64 {
     for l in from {
         let mut samples = Vec::new();
         for (i, p) in l.iter().enumerate() {
-            samples.push(*p);
             // A polygon cut at ±180 (or closed along a pole) gains edges along the meridian
-            // that the other side draws across it: their insides are not sampled.
+            // that the other side draws across it: their insides are not sampled, nor is a
+            // pole itself (world-atlas's Antarctica runs along 84-85° S, and a writer closing
+            // it along the South Pole puts two vertices 530 km from it).
             let on_cut =
                 |v: &[f64; 3]| (v[1].abs() < 1e-9 && v[0] < 0.0) || v[2].abs() > 1.0 - 1e-12;
+            if p[2].abs() <= 1.0 - 1e-12 {
+                samples.push(*p);
+            }
             if let Some(q) = l.get(i + 1).filter(|q| !(on_cut(p) && on_cut(q))) {
                 for k in 1..4 {
                     let f = k as f64 / 4.0;
