@@ -155,24 +155,15 @@ pub(super) fn refit_around(
         .map_err(|e| sphere_error(e, "", &[]))?;
     let line = ArcLine::new(&rows, closed, tolerance, job)?;
     let measured = line.measure(&spline, &params)?;
-    let f = line.finish(ArcCurve {
+    line.finish(ArcCurve {
         spline,
         control_ll: out_ll,
         rule: old.knot_rule,
         measured,
         seam: old.seam,
         params,
-    })?;
-    // A window pinned at the old vertices can fold back across the arc's own segments there.
-    // A new meeting of an arc with itself is not always judged new (an input arc that touches
-    // itself anywhere excuses its fits' meeting themselves anywhere), so the splice is kept
-    // only when the arc meets itself at no more segments than before (world-atlas
-    // countries-10m at 5 km: India, Sweden, Myanmar and Venezuela were written invalid
-    // without this).
-    if self_meetings(&f.dense, job).len() > self_meetings(&old.dense, job).len() {
-        return Ok(None);
-    }
-    Ok(Some(f))
+    })
+    .map(Some)
 }
 
 /// Where a fitted arc's `dense` points meet themselves as written (pairs of segments).
