@@ -356,6 +356,7 @@ pub fn keep(
             has_alt,
             report,
             time: None,
+            kept: None,
         },
         how,
     ))
@@ -511,6 +512,7 @@ mod tests {
                 .0
                 .report,
             time: None,
+            kept: None,
         };
         assert!(collapsed(&out(vec![p, q, p]), 7));
         assert!(collapsed(&out(vec![p, q, r, p]), 7), "equal at 7 decimals");

@@ -362,6 +362,20 @@ pub(crate) struct Tightened {
 /// wherever the input is.
 pub const LAST_RESORT_M: f64 = 0.01;
 
+/// Where a line's `dense` points meet themselves as written at `precision` decimals (pairs of
+/// segments).
+pub(crate) fn self_meetings(dense: &[[f64; 3]], precision: u32) -> Vec<(usize, usize)> {
+    Drawn::new(vec![dense], Some(precision)).meeting_segments(0, 0)
+}
+
+/// How many old vertices either side of a meeting a line fitted at `tolerance_m` and refitted
+/// at `t` around its meetings only refits: a meeting that a window pinned at the old vertices
+/// next to it did not part may need more room as the tolerance falls, round by round (T/2:
+/// one vertex each side, T/4: two, T/16: four, T/64: six).
+pub(crate) fn splice_margin(tolerance_m: f64, t: f64) -> usize {
+    (tolerance_m / t).log2().ceil().max(1.0) as usize
+}
+
 /// How many refit rounds `tighten` may spend, and how many of the last ones refit at
 /// [`LAST_RESORT_M`].
 #[derive(Clone, Copy, Debug)]

@@ -318,10 +318,10 @@ pub fn fit_line(
 /// fit in time, its times.
 #[derive(Clone, Copy)]
 pub(super) struct Prepared<'a> {
-    line: &'a LinePositions,
-    distinct: &'a DistinctPositions,
-    points: &'a PointSet,
-    time: Option<&'a Timed>,
+    pub(super) line: &'a LinePositions,
+    pub(super) distinct: &'a DistinctPositions,
+    pub(super) points: &'a PointSet,
+    pub(super) time: Option<&'a Timed>,
 }
 
 /// A fitted curve (control points already rounded) and what it was fitted to.
@@ -474,6 +474,7 @@ pub(super) fn finish_fit(
             points: points_out,
             alts,
             time: dense_times,
+            kept: None,
         },
         max_rad,
     ))
@@ -546,8 +547,6 @@ pub fn fit_line_to_tolerance(
     let fit_err = |e: SphereError| sphere_error(e, pointer, &distinct.input_index);
     let rule = ToleranceRule::new(tolerance_m, output.precision);
     let tol_rad = rule.tol_rad;
-    // The dense output adds its deviation to the curve's distance from the line.
-    let dense_margin = AUTO_DEVIATION_FRACTION * tol_rad;
     // A polyline is written as its rounded vertices (no sampling margin): it aims at the
     // tolerance less its vertices' rounding, and curves of degree >= 2 keep the rest of the
     // margin, as a coverage's arcs do (10m land outlines: 682,606 -> 675,664 stored numbers
@@ -583,63 +582,32 @@ pub fn fit_line_to_tolerance(
         // The two-way distance of the curve as returned (rounded, and closed for a ring): the
         // fitter's own bound moved by the rounding where that is proven and tight enough,
         // else measured afresh.
-        let report_precision = REPORT_TWO_WAY_PRECISION * tol_rad;
-        let measured = |precision: f64| -> Result<ReportedTwoWay, EarthError> {
-            let tw = two_way_distance(
+        let tw = match moved_polyline_bound(&r, &spline, REPORT_TWO_WAY_PRECISION * tol_rad) {
+            Some(tw) => tw,
+            None => reported_two_way(
                 &spline,
                 &points,
                 &r.parameters,
-                &TwoWayOptions::default()
-                    .with_precision_rad(precision)
-                    .with_max_evaluations(4_000_000 + 400 * points.len()),
-            )
-            .map_err(fit_err)?;
-            Ok(ReportedTwoWay {
-                upper_rad: tw.upper_rad,
-                curve_length_rad: tw.curve_length_rad,
-            })
+                REPORT_TWO_WAY_PRECISION * tol_rad,
+                pointer,
+            )?,
         };
-        let mut tw = match moved_polyline_bound(&r, &spline, report_precision) {
-            Some(tw) => tw,
-            None => measured(report_precision)?,
-        };
-        // A bound over the tolerance may be the slack of the report's precision (or of the
-        // rounding's move) alone, for a curve that meets it: measured closer before it counts
-        // as a miss (a polyline aims within millimetres of the tolerance at fine precisions).
-        if tw.upper_rad > tol_rad {
-            let fine = measured(FINE_TWO_WAY_PRECISION * tol_rad)?;
-            if fine.upper_rad < tw.upper_rad {
-                tw = fine;
-            }
-        }
-        let input_len = polyline_length(&points);
-        let length_ratio = if input_len > 0.0 {
-            tw.curve_length_rad / input_len
-        } else {
-            1.0
-        };
-        let stored = stored_numbers(&spline, r.knot_rule);
-        let knot_rule = serde_json::to_value(r.knot_rule).expect("enum serialises");
-        let (mut out, max_rad) = finish_fit(
-            Fitted {
-                input,
+        let (out, worst) = finish_tolerance_fit(
+            input,
+            ToleranceCurve {
                 spline,
                 control_ll,
                 control_rows,
                 params: r.parameters,
-                iterations: 0,
-                converged: false,
-                knots: knot_rule.clone(),
+                knot_rule: r.knot_rule,
+                degree: r.degree,
+                tw,
                 parameterization: options.parameterization,
-                // The margin the fit left for the dense output, so the returned geometry
-                // stays within the tolerance too.
-                sampling_aim_rad: Some(dense_margin),
             },
+            &rule,
             src,
             out,
         )?;
-        let worst = max_rad.max(tw.upper_rad);
-        let met = rule.met(worst, tw.curve_length_rad, input_len);
         // Rounding (or closing the ring) took a fit that met its target over the tolerance:
         // aim lower by the excess, once.
         if let Some(lower) = rule.retry_target_rad(target, worst, r.tolerance_met, attempt) {
@@ -647,33 +615,155 @@ pub fn fit_line_to_tolerance(
             attempt += 1;
             continue;
         }
-        let n_in = line.points.len();
-        let f = &mut out.report.fields;
-        f.insert("converged".into(), json!(met));
-        f.insert("tolerance_m".into(), json!(tolerance_m));
-        f.insert("tolerance_met".into(), json!(met));
-        f.insert(
-            "two_way_distance_m".into(),
-            json!(round_up_m(rad_to_m(tw.upper_rad))),
-        );
-        f.insert(
-            "curve_length_ratio".into(),
-            json!(round_to(length_ratio, 4)),
-        );
-        f.insert("degree".into(), json!(r.degree));
-        f.insert("knot_rule".into(), knot_rule);
-        f.insert("stored_numbers".into(), json!(stored));
-        f.insert(
-            "compression_ratio".into(),
-            json!(compression_ratio(n_in, stored)),
-        );
-        out.report.stored_numbers = stored;
         return Ok(out);
     }
 }
 
+/// A curve fitted to a tolerance as returned (rounded, a ring's seam closed), before it is
+/// sampled and reported.
+pub(super) struct ToleranceCurve {
+    pub(super) spline: SphericalBSpline,
+    pub(super) control_ll: Vec<[f64; 2]>,
+    pub(super) control_rows: Vec<[f64; 3]>,
+    /// The parameters of the line's distinct positions on it.
+    pub(super) params: Vec<f64>,
+    pub(super) knot_rule: KnotRule,
+    pub(super) degree: usize,
+    /// Its two-way distance from the line, measured as returned.
+    pub(super) tw: ReportedTwoWay,
+    /// The starting parameters asked for (reported).
+    pub(super) parameterization: crate::sphere::Parameterization,
+}
+
+/// The two-way distance of a curve as returned from the line (`points` at `params`), to
+/// `precision`.
+pub(super) fn reported_two_way(
+    spline: &SphericalBSpline,
+    points: &PointSet,
+    params: &[f64],
+    precision: f64,
+    pointer: &str,
+) -> Result<ReportedTwoWay, EarthError> {
+    let tw = two_way_distance(
+        spline,
+        points,
+        params,
+        &TwoWayOptions::default()
+            .with_precision_rad(precision)
+            .with_max_evaluations(4_000_000 + 400 * points.len()),
+    )
+    .map_err(|e| sphere_error(e, pointer, &[]))?;
+    Ok(ReportedTwoWay {
+        upper_rad: tw.upper_rad,
+        curve_length_rad: tw.curve_length_rad,
+    })
+}
+
+/// Samples and reports a curve fitted to `rule`'s tolerance ([`finish_fit`] and the tolerance
+/// fields); also returns the larger of its max error and two-way distance. A polyline written
+/// as its vertices keeps its curve ([`CurveOutput::kept`]).
+pub(super) fn finish_tolerance_fit(
+    input: Prepared<'_>,
+    c: ToleranceCurve,
+    rule: &ToleranceRule,
+    src: LineRef<'_>,
+    out: OutputSpec<'_>,
+) -> Result<(CurveOutput, f64), EarthError> {
+    let ToleranceCurve {
+        spline,
+        control_ll,
+        control_rows,
+        params,
+        knot_rule,
+        degree,
+        mut tw,
+        parameterization,
+    } = c;
+    let points = input.points;
+    let tol_rad = rule.tol_rad;
+    // A bound over the tolerance may be the slack of the report's precision (or of the
+    // rounding's move) alone, for a curve that meets it: measured closer before it counts as
+    // a miss (a polyline aims within millimetres of the tolerance at fine precisions).
+    if tw.upper_rad > tol_rad {
+        let fine = reported_two_way(
+            &spline,
+            points,
+            &params,
+            FINE_TWO_WAY_PRECISION * tol_rad,
+            src.pointer,
+        )?;
+        if fine.upper_rad < tw.upper_rad {
+            tw = fine;
+        }
+    }
+    let input_len = polyline_length(points);
+    let length_ratio = if input_len > 0.0 {
+        tw.curve_length_rad / input_len
+    } else {
+        1.0
+    };
+    let stored = stored_numbers(&spline, knot_rule);
+    let keep = (degree == 1
+        && input.time.is_none()
+        && knot_rule == KnotRule::Uniform
+        && spline.has_clamped_uniform_knots())
+    .then(|| KeptPolyline {
+        spline: spline.clone(),
+        control_ll: control_ll.clone(),
+        control_rows: control_rows.clone(),
+        params: params.clone(),
+    });
+    let knot_rule = serde_json::to_value(knot_rule).expect("enum serialises");
+    let (mut out, max_rad) = finish_fit(
+        Fitted {
+            input,
+            spline,
+            control_ll,
+            control_rows,
+            params,
+            iterations: 0,
+            converged: false,
+            knots: knot_rule.clone(),
+            parameterization,
+            // The margin the fit left for the dense output, so the returned geometry stays
+            // within the tolerance too.
+            sampling_aim_rad: Some(AUTO_DEVIATION_FRACTION * tol_rad),
+        },
+        src,
+        out,
+    )?;
+    let worst = max_rad.max(tw.upper_rad);
+    let met = rule.met(worst, tw.curve_length_rad, input_len);
+    let n_in = input.line.points.len();
+    let f = &mut out.report.fields;
+    f.insert("converged".into(), json!(met));
+    f.insert("tolerance_m".into(), json!(rule.tolerance_m));
+    f.insert("tolerance_met".into(), json!(met));
+    f.insert(
+        "two_way_distance_m".into(),
+        json!(round_up_m(rad_to_m(tw.upper_rad))),
+    );
+    f.insert(
+        "curve_length_ratio".into(),
+        json!(round_to(length_ratio, 4)),
+    );
+    f.insert("degree".into(), json!(degree));
+    f.insert("knot_rule".into(), knot_rule);
+    f.insert("stored_numbers".into(), json!(stored));
+    f.insert(
+        "compression_ratio".into(),
+        json!(compression_ratio(n_in, stored)),
+    );
+    out.report.stored_numbers = stored;
+    // Kept only when what is written is the polyline's vertices, one dense point each.
+    out.kept = keep
+        .filter(|k| out.points.len() == k.control_ll.len())
+        .map(Box::new);
+    Ok((out, worst))
+}
+
 /// The two-way distance reported for a fitted curve, and the curve's length.
-struct ReportedTwoWay {
+pub(super) struct ReportedTwoWay {
     upper_rad: f64,
     curve_length_rad: f64,
 }
@@ -789,7 +879,10 @@ type RoundedSpline = (SphericalBSpline, Vec<[f64; 2]>, Vec<[f64; 3]>);
 /// A spline whose control points are rounded to `precision` decimals of a degree, those
 /// control points as `[lon, lat]`, and as [`lonlat_to_unit`] gave them (before the point set
 /// normalised them), for [`finish_fit`].
-fn round_spline_rows(s: &SphericalBSpline, precision: u32) -> Result<RoundedSpline, SphereError> {
+pub(super) fn round_spline_rows(
+    s: &SphericalBSpline,
+    precision: u32,
+) -> Result<RoundedSpline, SphereError> {
     round_with_rows(s, &|x| round_to(x, precision))
 }
 

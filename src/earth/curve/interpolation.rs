@@ -77,6 +77,7 @@ pub fn interpolate_line(
         points: points_out,
         alts,
         time: None,
+        kept: None,
     })
 }
 

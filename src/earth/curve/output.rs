@@ -60,6 +60,26 @@ pub struct CurveOutput {
     pub report: CurveReport,
     /// The time of each dense point, for a curve in time.
     pub time: Option<DenseTimes>,
+    /// A tolerance fit's polyline as fitted, when it is written as its vertices, so that a
+    /// ring found meeting another can be refitted around the meeting only.
+    pub kept: Option<Box<KeptPolyline>>,
+}
+
+/// A polyline fitted to a tolerance (degree 1 on uniform knots, its dense points its
+/// vertices) and the parameters of its positions on it: what [`refit_line_around`] splices.
+///
+/// Refitting a whole ring for one meeting stored a long coast's every stretch at the tighter
+/// tolerance (docs/speed.md, "eighth session").
+#[derive(Clone, Debug)]
+pub struct KeptPolyline {
+    /// The spline as returned (control points rounded, a ring's seam closed).
+    pub(super) spline: SphericalBSpline,
+    /// Its control points as written.
+    pub(super) control_ll: Vec<[f64; 2]>,
+    /// Its control points as [`lonlat_to_unit`] made them of `control_ll`.
+    pub(super) control_rows: Vec<[f64; 3]>,
+    /// The parameters of the line's distinct positions on it.
+    pub(super) params: Vec<f64>,
 }
 
 /// The number of points automatic sampling starts from: a few per control point.

@@ -243,6 +243,7 @@ pub fn evaluate_curve(
         points,
         alts,
         time: dense_times,
+        kept: None,
     })
 }
 

@@ -2,10 +2,12 @@
 //! where the input's did not are refitted tighter ([`crate::earth::validity`]).
 
 use super::*;
+use crate::earth::curve::refit_line_around;
 use crate::earth::lonlat::m_to_rad;
 use crate::earth::topology::TIGHTEN_ROUNDS;
-use crate::earth::validity::{tighten, Drawn, Rounds};
+use crate::earth::validity::{self_meetings, splice_margin, tighten, Drawn, Rounds, LAST_RESORT_M};
 use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
+use crate::sphere::FitOptions;
 
 /// Validity: the fitted rings of one feature (exterior rings, holes, the polygons of a
 /// MultiPolygon) must not meet themselves or each other where the input's rings did not, on
@@ -52,9 +54,12 @@ pub(super) fn tighten_crossing_rings(
         },
         outputs,
         |o: &CurveOutput| o.points.as_slice(),
-        |i, t, _, _| {
+        |i, t, old, at| {
             let _scope = job.cancel.enter();
             let c = &jobs[i];
+            if let Some(out) = refit_around(c, options, (*tolerance_m, t), old, at, job)? {
+                return Ok(Some(out));
+            }
             let mut out =
                 fit_line_to_tolerance(c.line(), options, t, c.times.as_ref(), output_spec(job))?;
             job_tolerance_met(&mut out, *tolerance_m);
@@ -62,7 +67,56 @@ pub(super) fn tighten_crossing_rings(
             Ok::<_, EarthError>((!small_rings::collapsed(&out, precision)).then_some(out))
         },
     )?;
+    // The polylines were kept for the refits only.
+    for o in outputs.iter_mut() {
+        o.kept = None;
+    }
     Ok(())
+}
+
+/// Ring `c` (fitted as `old`, to the job's tolerance `tolerance_m` or tighter) refitted at `t`
+/// around its segments `at` only ([`refit_line_around`]), where it meets another ring or
+/// itself, when that can be done, the ring then meets the job's tolerance and meets itself at
+/// no more segments than before. The last round ([`LAST_RESORT_M`]) refits whole rings.
+///
+/// A window pinned at the old vertices can fold back across the ring's own segments there,
+/// and a new meeting of a ring with itself is not always judged new where its input touches
+/// itself: the splice's own meetings are refitted with it, and it must not add any.
+fn refit_around(
+    c: &CurveJob<'_>,
+    options: &FitOptions,
+    (tolerance_m, t): (f64, f64),
+    old: &CurveOutput,
+    at: &[usize],
+    job: &Job,
+) -> Result<Option<CurveOutput>, EarthError> {
+    if t <= LAST_RESORT_M || c.times.is_some() || old.kept.is_none() {
+        return Ok(None);
+    }
+    let precision = job.output.precision;
+    let old_self = self_meetings(&old.points, precision);
+    let mut at = at.to_vec();
+    at.extend(old_self.iter().flat_map(|&(i, j)| [i, j]));
+    at.sort_unstable();
+    at.dedup();
+    let margin = splice_margin(tolerance_m, t);
+    let Some(mut out) = refit_line_around(
+        c.line(),
+        options,
+        (tolerance_m, t),
+        old,
+        (&at, margin),
+        output_spec(job),
+    )?
+    else {
+        return Ok(None);
+    };
+    job_tolerance_met(&mut out, tolerance_m);
+    let met = out.report.fields.get("tolerance_met") == Some(&Value::Bool(true));
+    Ok((met
+        && !small_rings::collapsed(&out, precision)
+        && self_meetings(&out.points, precision).len() <= old_self.len())
+    .then_some(out))
 }
 
 /// A ring refitted tighter reports `tolerance_m` as what it was fitted to, and

@@ -166,12 +166,6 @@ pub(super) fn refit_around(
     .map(Some)
 }
 
-/// Where a fitted arc's `dense` points meet themselves as written (pairs of segments).
-pub(super) fn self_meetings(dense: &[[f64; 3]], job: &Job) -> Vec<(usize, usize)> {
-    crate::earth::validity::Drawn::new(vec![dense], Some(job.output.precision))
-        .meeting_segments(0, 0)
-}
-
 /// The positions an arc is fitted through: an open arc's as they are; a closed one's started
 /// at its sharpest corner (a C0 seam there costs nothing), with whether that corner is
 /// smooth.

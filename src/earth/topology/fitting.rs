@@ -73,16 +73,13 @@ impl ArcFitting<'_> {
         if tolerance.tolerance_m <= validity::LAST_RESORT_M {
             return Ok(None);
         }
-        let margin = (job_tolerance.tolerance_m / tolerance.tolerance_m)
-            .log2()
-            .ceil()
-            .max(1.0) as usize;
+        let margin = validity::splice_margin(job_tolerance.tolerance_m, tolerance.tolerance_m);
         let _scope = self.job.cancel.enter();
         let pointer = &self.sources[self.arc_ring[a]].pointer;
         // Where the arc meets itself too: such a meeting is excused when its input touches
         // itself anywhere, and a whole refit used to part it by the way (world-atlas
         // countries-10m at 5 km: India's, Sweden's, Myanmar's and Venezuela's coasts).
-        let old_self = self_meetings(&old.dense, self.job);
+        let old_self = validity::self_meetings(&old.dense, self.job.output.precision);
         let mut at = at.to_vec();
         at.extend(old_self.iter().flat_map(|&(i, j)| [i, j]));
         at.sort_unstable();
@@ -105,7 +102,8 @@ impl ArcFitting<'_> {
         // invalid without this).
         Ok(f.filter(|f| {
             tolerance_met_by(f, job_tolerance)
-                && self_meetings(&f.dense, self.job).len() <= old_self.len()
+                && validity::self_meetings(&f.dense, self.job.output.precision).len()
+                    <= old_self.len()
         }))
     }
 
