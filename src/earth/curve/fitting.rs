@@ -712,6 +712,7 @@ pub(super) fn finish_tolerance_fit(
         control_ll: control_ll.clone(),
         control_rows: control_rows.clone(),
         params: params.clone(),
+        two_way_rad: tw.upper_rad,
     });
     let knot_rule = serde_json::to_value(knot_rule).expect("enum serialises");
     let (mut out, max_rad) = finish_fit(
@@ -764,8 +765,8 @@ pub(super) fn finish_tolerance_fit(
 
 /// The two-way distance reported for a fitted curve, and the curve's length.
 pub(super) struct ReportedTwoWay {
-    upper_rad: f64,
-    curve_length_rad: f64,
+    pub(super) upper_rad: f64,
+    pub(super) curve_length_rad: f64,
 }
 
 /// The two-way distance of `finished` (the fitter's polyline `r.spline` with its vertices

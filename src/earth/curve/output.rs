@@ -80,6 +80,8 @@ pub struct KeptPolyline {
     pub(super) control_rows: Vec<[f64; 3]>,
     /// The parameters of the line's distinct positions on it.
     pub(super) params: Vec<f64>,
+    /// An upper bound of its two-way distance from the line, radians.
+    pub(super) two_way_rad: f64,
 }
 
 /// The number of points automatic sampling starts from: a few per control point.

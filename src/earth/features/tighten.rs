@@ -4,8 +4,9 @@
 use super::*;
 use crate::earth::curve::refit_line_around;
 use crate::earth::lonlat::m_to_rad;
-use crate::earth::topology::TIGHTEN_ROUNDS;
-use crate::earth::validity::{self_meetings, splice_margin, tighten, Drawn, Rounds, LAST_RESORT_M};
+use crate::earth::validity::{
+    self_meetings, splice_margin, tighten, Drawn, LAST_RESORT_M, REFIT_ROUNDS,
+};
 use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
 use crate::sphere::FitOptions;
 
@@ -14,7 +15,7 @@ use crate::sphere::FitOptions;
 /// the sphere or as written ([`crate::earth::validity`]). At a loose tolerance a fitted ring can
 /// cut across a narrow inlet, touch its hole (Antarctica's peninsula at 10 km does) or an island
 /// nearby (the Curonian Spit and Lithuania's coast at 1 km); each ring of such a pair is
-/// refitted tighter, up to [`TIGHTEN_ROUNDS`] times, and its report gives the tolerance it was
+/// refitted tighter, up to [`REFIT_ROUNDS`] times (around the meeting only where it can be), and its report gives the tolerance it was
 /// fitted to. Only tolerance fits tighten: a fit to a fixed number of control points, or an
 /// interpolation, is what was asked for.
 pub(super) fn tighten_crossing_rings(
@@ -47,11 +48,7 @@ pub(super) fn tighten_crossing_rings(
         &input,
         &pairs,
         *tolerance_m,
-        Rounds {
-            rounds: TIGHTEN_ROUNDS,
-            last_resort: 1,
-            excused_near_input_only: false,
-        },
+        REFIT_ROUNDS,
         outputs,
         |o: &CurveOutput| o.points.as_slice(),
         |i, t, old, at| {
@@ -90,7 +87,12 @@ fn refit_around(
     at: &[usize],
     job: &Job,
 ) -> Result<Option<CurveOutput>, EarthError> {
-    if t <= LAST_RESORT_M || c.times.is_some() || old.kept.is_none() {
+    // The first round at the last resort splices too, with wide windows (Greenland's 10m
+    // ring at 5 km: one meeting left after four rounds, and a whole refit at 1 cm stored
+    // all 15,536 positions); the second refits whole.
+    let old_t = old.report.fields.get("tolerance_m").and_then(Value::as_f64);
+    let last_resort_before = old_t.is_some_and(|o| o <= LAST_RESORT_M);
+    if last_resort_before || c.times.is_some() || old.kept.is_none() {
         return Ok(None);
     }
     let precision = job.output.precision;

@@ -1,6 +1,6 @@
 //! A coverage's arcs fitted: every arc fitted once ([`fit_arc`]), then, for validity, arcs
 //! of one feature or meeting at a junction that meet each other (or an arc itself) where the
-//! input did not, on the sphere or as written, are refitted tighter, up to [`COVERAGE_ROUNDS`]
+//! input did not, on the sphere or as written, are refitted tighter, up to [`validity::REFIT_ROUNDS`]
 //! times ([`crate::earth::validity`]).
 
 use super::*;
@@ -13,7 +13,7 @@ pub(super) struct FittedArcs {
     pub(super) arcs: Vec<FittedArc>,
     /// How many arcs were fitted to a tighter tolerance than the job's.
     pub(super) tightened: usize,
-    /// The pairs of arcs that still meet after [`COVERAGE_ROUNDS`].
+    /// The pairs of arcs that still meet after [`validity::REFIT_ROUNDS`].
     pub(super) crossings_left: Vec<(usize, usize)>,
     /// Decimal steps in a step of the grid every arc lies on: the rule's, or 1 when arcs fitted
     /// on a coarser grid still met and were refitted on the decimal one.
@@ -59,9 +59,10 @@ impl ArcFitting<'_> {
     ///
     /// The windows refitted grow as the tolerance falls, round by round: a meeting that a
     /// window pinned at the old vertices next to it did not part may need more room (T/2: one
-    /// vertex each side, T/4: two, T/16: four, T/64: six). The last round
-    /// ([`validity::LAST_RESORT_M`]) refits the whole arc, as close to its input as it is
-    /// written, so the output is valid wherever the input is.
+    /// vertex each side, T/4: two, T/16: four, T/64: six). The first round at
+    /// [`validity::LAST_RESORT_M`] splices the input itself in, with wide windows; the last
+    /// refits the whole arc, as close to its input as it is written, so the output is valid
+    /// wherever the input is.
     fn refit_around(
         &self,
         a: usize,
@@ -70,7 +71,7 @@ impl ArcFitting<'_> {
         tolerance: ToleranceRule,
         job_tolerance: &ToleranceRule,
     ) -> Result<Option<FittedArc>, EarthError> {
-        if tolerance.tolerance_m <= validity::LAST_RESORT_M {
+        if old.tolerance_rad <= m_to_rad(validity::LAST_RESORT_M) {
             return Ok(None);
         }
         let margin = validity::splice_margin(job_tolerance.tolerance_m, tolerance.tolerance_m);
@@ -158,7 +159,7 @@ pub(super) fn fit_arcs(
 }
 
 /// Refits the arcs that meet where their input did not ([`crate::earth::validity::tighten`]),
-/// up to [`COVERAGE_ROUNDS`] times; a refit arc meets the tolerance when it is within the job's.
+/// up to [`validity::REFIT_ROUNDS`] times; a refit arc meets the tolerance when it is within the job's.
 fn tighten(
     fitting: &ArcFitting<'_>,
     mut fitted: Vec<FittedArc>,
@@ -183,7 +184,7 @@ fn tighten(
             &input,
             &pairs,
             tolerance.tolerance_m,
-            COVERAGE_ROUNDS,
+            validity::REFIT_ROUNDS,
             fitted,
             |f: &FittedArc| f.dense.as_slice(),
             |a, t, old: &FittedArc, at: &[usize]| {

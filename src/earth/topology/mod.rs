@@ -39,24 +39,6 @@
 
 pub mod arcs;
 
-/// How many times a line (a shared arc, a ring fitted per feature) that meets a neighbour (or
-/// itself) where its input did not is refitted tighter ([`crate::earth::validity::Rounds`]:
-/// T/2, T/4, T/16, T/64, then as written from the input) before a meeting is reported as left
-/// (`crossings_left`). A coverage's arcs, refitted around their meetings only, get one more
-/// round as written from the input (`COVERAGE_ROUNDS`).
-pub const TIGHTEN_ROUNDS: usize = 5;
-
-/// The refit rounds of a coverage's arcs: [`TIGHTEN_ROUNDS`], then one more as written from
-/// the input. An arc refitted so in the last of them lies on its input and may then meet a
-/// neighbour that was refitted only around its own meetings, at a coarser tolerance; one more
-/// round refits that neighbour so too (world-atlas countries-10m at 20 km: four pairs left
-/// without it, none with it).
-const COVERAGE_ROUNDS: crate::earth::validity::Rounds = crate::earth::validity::Rounds {
-    rounds: TIGHTEN_ROUNDS + 1,
-    last_resort: 2,
-    excused_near_input_only: true,
-};
-
 use super::antimeridian;
 use super::area;
 use super::curve::{
