@@ -102,23 +102,30 @@ fn refit_around(
     at.sort_unstable();
     at.dedup();
     let margin = splice_margin(tolerance_m, t);
-    let Some(mut out) = refit_line_around(
-        c.line(),
-        options,
-        (tolerance_m, t),
-        old,
-        (&at, margin),
-        output_spec(job),
-    )?
-    else {
-        return Ok(None);
-    };
-    job_tolerance_met(&mut out, tolerance_m);
-    let met = out.report.fields.get("tolerance_met") == Some(&Value::Bool(true));
-    Ok((met
-        && !small_rings::collapsed(&out, precision)
-        && self_meetings(&out.points, precision).len() <= old_self.len())
-    .then_some(out))
+    // A splice that meets itself more is tried again with windows twice as wide, then four
+    // times, before the whole ring is refitted (as a coverage's arcs are).
+    for widen in [1, 2, 4] {
+        let Some(mut out) = refit_line_around(
+            c.line(),
+            options,
+            (tolerance_m, t),
+            old,
+            (&at, widen * margin),
+            output_spec(job),
+        )?
+        else {
+            return Ok(None);
+        };
+        job_tolerance_met(&mut out, tolerance_m);
+        let met = out.report.fields.get("tolerance_met") == Some(&Value::Bool(true));
+        if met
+            && !small_rings::collapsed(&out, precision)
+            && self_meetings(&out.points, precision).len() <= old_self.len()
+        {
+            return Ok(Some(out));
+        }
+    }
+    Ok(None)
 }
 
 /// A ring refitted tighter reports `tolerance_m` as what it was fitted to, and
