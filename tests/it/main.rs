@@ -26,3 +26,4 @@ mod time;
 mod tolerance;
 mod topology;
 mod two_way;
+mod validity;
