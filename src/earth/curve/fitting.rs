@@ -708,9 +708,7 @@ pub(super) fn finish_tolerance_fit(
         && knot_rule == KnotRule::Uniform
         && spline.has_clamped_uniform_knots())
     .then(|| KeptPolyline {
-        spline: spline.clone(),
         control_ll: control_ll.clone(),
-        control_rows: control_rows.clone(),
         params: params.clone(),
         two_way_rad: tw.upper_rad,
     });

@@ -72,16 +72,29 @@ pub struct CurveOutput {
 /// tolerance (docs/speed.md, "eighth session").
 #[derive(Clone, Debug)]
 pub struct KeptPolyline {
-    /// The spline as returned (control points rounded, a ring's seam closed).
-    pub(super) spline: SphericalBSpline,
-    /// Its control points as written.
+    /// Its vertices as written (a ring's seam closed): the spline's control points are these
+    /// made unit vectors ([`lonlat_to_unit`]) and normalised (as `round_spline_rows` made
+    /// them), so they are not kept twice (the 10m countries per feature held about 10 MB more
+    /// with them).
     pub(super) control_ll: Vec<[f64; 2]>,
-    /// Its control points as [`lonlat_to_unit`] made them of `control_ll`.
-    pub(super) control_rows: Vec<[f64; 3]>,
     /// The parameters of the line's distinct positions on it.
     pub(super) params: Vec<f64>,
     /// An upper bound of its two-way distance from the line, radians.
     pub(super) two_way_rad: f64,
+}
+
+impl KeptPolyline {
+    /// The vertices as unit vectors, as [`lonlat_to_unit`] makes them, and as the spline's
+    /// control points (normalised).
+    pub(super) fn rows(&self) -> Result<(Vec<[f64; 3]>, PointSet), SphereError> {
+        let rows: Vec<[f64; 3]> = self
+            .control_ll
+            .iter()
+            .map(|p| lonlat_to_unit(p[0], p[1]))
+            .collect();
+        let set = PointSet::try_from_rows(&rows)?;
+        Ok((rows, set))
+    }
 }
 
 /// The number of points automatic sampling starts from: a few per control point.

@@ -149,6 +149,10 @@ pub(super) fn curves_of_geometry(
     if kind.ends_with("Polygon") {
         tighten_crossing_rings(&jobs, &mut outputs, job)?;
     }
+    // The fitted polylines were kept for those refits only.
+    for o in outputs.iter_mut() {
+        o.kept = None;
+    }
     // Spherical area before and after, as shared fitting reports it: the input rings as read
     // (rejoined where they came cut) against the fitted rings before they are cut at ±180.
     let areas = kind.ends_with("Polygon").then(|| {

@@ -64,10 +64,6 @@ pub(super) fn tighten_crossing_rings(
             Ok::<_, EarthError>((!small_rings::collapsed(&out, precision)).then_some(out))
         },
     )?;
-    // The polylines were kept for the refits only.
-    for o in outputs.iter_mut() {
-        o.kept = None;
-    }
     Ok(())
 }
 

@@ -91,7 +91,7 @@ impl ArcFitting<'_> {
         // before (countries-10m at 5 km: India, Sweden, Myanmar and Venezuela were written
         // invalid without this). One that does is tried again with windows twice as wide,
         // then four times, before the whole arc is refitted (countries-10m at 5 km: 29 of
-        // 423 splices folded so; widened, the coverage stores 86,604 numbers rather than
+        // 495 splices folded so; widened, the coverage stores 86,604 numbers rather than
         // 90,498, and 49,458 rather than 60,640 at 20 km).
         for widen in [1, 2, 4] {
             let f = refit_around(
