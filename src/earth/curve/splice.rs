@@ -54,24 +54,19 @@ pub fn refit_line_around(
     // within (measuring them closer, to a share of the tighter one, was a tenth of the run at
     // 5 km on the 10m countries, proving nothing asked for).
     let line_rule = ToleranceRule::new(line_tolerance_m, precision);
-    // The windows of old vertices [lo, hi] refitted, merged where they overlap.
-    let mut windows: Vec<(usize, usize)> = Vec::new();
-    for &s in at {
-        let (lo, hi) = (s.saturating_sub(margin), (s + 1 + margin).min(m - 1));
-        match windows.last_mut() {
-            Some(w) if lo <= w.1 => w.1 = w.1.max(hi),
-            _ => windows.push((lo, hi)),
-        }
-    }
     let (kept_rows, ctrl) = kept.rows().map_err(err)?;
-    let vertex = |k: usize| -> [f64; 3] {
-        let c = ctrl.get(k);
-        [c[0], c[1], c[2]]
-    };
-    let row = |i: usize| -> [f64; 3] {
-        let p = points.get(i);
-        [p[0], p[1], p[2]]
-    };
+    let vertices: Vec<[f64; 3]> = (0..m)
+        .map(|k| {
+            let c = ctrl.get(k);
+            [c[0], c[1], c[2]]
+        })
+        .collect();
+    let positions: Vec<[f64; 3]> = (0..n)
+        .map(|i| {
+            let p = points.get(i);
+            [p[0], p[1], p[2]]
+        })
+        .collect();
     let topts = ToleranceOptions {
         degrees: vec![1],
         parameterization: options.parameterization,
@@ -79,101 +74,59 @@ pub fn refit_line_around(
         measure_result: false,
         ..ToleranceOptions::default()
     };
-    // Each position's place along the old polyline: segment index plus the share of it.
-    let last = (m - 1) as f64;
-    let pos: Vec<f64> = kept.params.iter().map(|t| t * last).collect();
-    let mut rows: Vec<[f64; 3]> = Vec::with_capacity(m);
-    let mut control_ll: Vec<[f64; 2]> = Vec::with_capacity(m);
-    let mut control_rows: Vec<[f64; 3]> = Vec::with_capacity(m);
-    let mut new_pos = vec![0.0; n];
-    // Each window's positions with one on either side (first, last): the input segments whose
-    // stretch of the curve changed.
-    let mut changed: Vec<(usize, usize)> = Vec::with_capacity(windows.len());
-    // New place minus old place, past the windows spliced so far.
-    let mut shift = 0.0;
-    let (mut v, mut r) = (0, 0);
-    for &(lo, hi) in &windows {
-        for k in v..lo {
-            rows.push(vertex(k));
-            control_ll.push(kept.control_ll[k]);
-            control_rows.push(kept_rows[k]);
-        }
-        while r < n && pos[r] <= lo as f64 {
-            new_pos[r] = pos[r] + shift;
-            r += 1;
-        }
-        let start = r;
-        while r < n && pos[r] < hi as f64 {
-            r += 1;
-        }
-        // The window's line: its first vertex, its positions (each once), its last vertex.
-        let (first, end) = (vertex(lo), vertex(hi));
-        let mut sub_rows = vec![first];
-        let mut sub_of = Vec::with_capacity(r - start);
-        for i in start..r {
-            let p = row(i);
-            if p != *sub_rows.last().expect("the first vertex") && p != end {
-                sub_rows.push(p);
+    let spliced = splice_windows(
+        &vertices,
+        &kept.params,
+        &positions,
+        (at, margin),
+        |sub_rows| {
+            let sub_points = PointSet::try_from_rows(&sub_rows).map_err(err)?;
+            let sub = fit_to_tolerance(
+                &sub_points,
+                None,
+                rule.polyline_target_rad(),
+                &topts.clone().with_max_control_points(sub_rows.len()),
+            )
+            .map_err(err)?;
+            let ms = sub.spline.control_points().len();
+            if sub.spline.degree() != 1 || !sub.spline.has_clamped_uniform_knots() || ms < 2 {
+                return Ok(None);
             }
-            sub_of.push(sub_rows.len() - 1);
-        }
-        sub_rows.push(end);
-        if sub_rows.len() < 3 {
-            return Ok(None);
-        }
-        let sub_points = PointSet::try_from_rows(&sub_rows).map_err(err)?;
-        let target = rule.polyline_target_rad();
-        let sub = fit_to_tolerance(
-            &sub_points,
-            None,
-            target,
-            &topts.clone().with_max_control_points(sub_rows.len()),
-        )
-        .map_err(err)?;
-        let ms = sub.spline.control_points().len();
-        if sub.spline.degree() != 1 || !sub.spline.has_clamped_uniform_knots() || ms < 2 {
-            return Ok(None);
-        }
-        let (sub_spline, sub_ll, sub_rows_written) =
-            round_spline_rows(&sub.spline, precision).map_err(err)?;
-        let sub_ctrl = sub_spline.control_points();
-        let base = rows.len() as f64;
-        // The window's ends are the old vertices exactly; its interior is the refit's.
-        rows.push(first);
-        control_ll.push(kept.control_ll[lo]);
-        control_rows.push(kept_rows[lo]);
-        for k in 1..ms - 1 {
-            let c = sub_ctrl.get(k);
-            rows.push([c[0], c[1], c[2]]);
-            control_ll.push(sub_ll[k]);
-            control_rows.push(sub_rows_written[k]);
-        }
-        let sub_last = (ms - 1) as f64;
-        for (i, &k) in (start..r).zip(&sub_of) {
-            new_pos[i] = base + sub.parameters[k] * sub_last;
-        }
-        shift = base + sub_last - hi as f64;
-        v = hi;
-        changed.push((start.saturating_sub(1), r.min(n - 1)));
-    }
-    for k in v..m {
-        rows.push(vertex(k));
-        control_ll.push(kept.control_ll[k]);
-        control_rows.push(kept_rows[k]);
-    }
-    while r < n {
-        new_pos[r] = pos[r] + shift;
-        r += 1;
-    }
-    let new_last = (rows.len() - 1) as f64;
-    let mut params: Vec<f64> = new_pos
-        .iter()
-        .map(|p| (p / new_last).clamp(0.0, 1.0))
-        .collect();
-    params[0] = 0.0;
-    params[n - 1] = 1.0;
-    for i in 1..n {
-        params[i] = params[i].max(params[i - 1]);
+            let (sub_spline, sub_ll, sub_rows_written) =
+                round_spline_rows(&sub.spline, precision).map_err(err)?;
+            let sub_ctrl = sub_spline.control_points();
+            let interior = (1..ms - 1)
+                .map(|k| {
+                    let c = sub_ctrl.get(k);
+                    ([c[0], c[1], c[2]], sub_ll[k], sub_rows_written[k])
+                })
+                .collect();
+            Ok(Some(WindowFit {
+                interior,
+                params: sub.parameters,
+            }))
+        },
+    )?;
+    let Some(Splice {
+        vertices: spliced,
+        params,
+        place,
+        changed,
+    }) = spliced
+    else {
+        return Ok(None);
+    };
+    let mut rows: Vec<[f64; 3]> = Vec::with_capacity(spliced.len());
+    let mut control_ll: Vec<[f64; 2]> = Vec::with_capacity(spliced.len());
+    let mut control_rows: Vec<[f64; 3]> = Vec::with_capacity(spliced.len());
+    for v in spliced {
+        let (unit, ll, row) = match v {
+            Spliced::Old(k) => (vertices[k], kept.control_ll[k], kept_rows[k]),
+            Spliced::New(new) => new,
+        };
+        rows.push(unit);
+        control_ll.push(ll);
+        control_rows.push(row);
     }
     let knots = clamped_uniform_knots(rows.len(), 1);
     let spline = PointSet::try_from_rows(&rows)
@@ -184,7 +137,7 @@ pub fn refit_line_around(
     // alone; measuring the whole ring again was a tenth of the run at 5 km.
     let mut upper = kept.two_way_rad;
     for &(first, last) in &changed {
-        let Some(d) = stretch_two_way(&rows, &points, &new_pos, (first, last), line_rule.tol_rad)?
+        let Some(d) = stretch_two_way(&rows, &points, &place, (first, last), line_rule.tol_rad)?
         else {
             upper = f64::INFINITY;
             break;
@@ -231,6 +184,134 @@ pub fn refit_line_around(
         .fields
         .insert("tolerance_m".into(), serde_json::json!(tolerance_m));
     Ok(Some(out))
+}
+
+/// A polyline's vertex after a splice ([`splice_windows`]): an old one kept, or a window's new
+/// one.
+pub(crate) enum Spliced<V> {
+    Old(usize),
+    New(V),
+}
+
+/// A window's refit ([`splice_windows`]): its interior vertices (its ends are the old vertices
+/// that bound it) and the parameter of each row of the window's line on it.
+pub(crate) struct WindowFit<V> {
+    pub(crate) interior: Vec<V>,
+    pub(crate) params: Vec<f64>,
+}
+
+/// A polyline spliced ([`splice_windows`]).
+pub(crate) struct Splice<V> {
+    pub(crate) vertices: Vec<Spliced<V>>,
+    /// Each position's parameter on the new polyline (uniform knots), non-decreasing, the ends
+    /// at 0 and 1.
+    pub(crate) params: Vec<f64>,
+    /// Each position's place along it: vertex index plus the share of the next segment.
+    pub(crate) place: Vec<f64>,
+    /// Each window's positions with one on either side (first, last): the input segments
+    /// whose stretch of the polyline changed.
+    pub(crate) changed: Vec<(usize, usize)>,
+}
+
+/// A polyline (`vertices`, on uniform knots; `positions` at `params` on it) refitted around its
+/// segments `at` (ascending; segment `i` from vertex `i` to `i + 1`) only: each run of them,
+/// with `margin` old vertices on either side, is a window whose line (its first vertex, the
+/// positions between, each once, its last vertex) `fit_window` refits pinned at its ends; the
+/// rest is kept. Shared by rings fitted per feature ([`refit_line_around`]) and a coverage's
+/// arcs (`topology`). `None` when a segment is past the last, a window holds no position, or
+/// `fit_window` gives `None`.
+pub(crate) fn splice_windows<V>(
+    vertices: &[[f64; 3]],
+    params: &[f64],
+    positions: &[[f64; 3]],
+    (at, margin): (&[usize], usize),
+    mut fit_window: impl FnMut(Vec<[f64; 3]>) -> Result<Option<WindowFit<V>>, EarthError>,
+) -> Result<Option<Splice<V>>, EarthError> {
+    let (m, n) = (vertices.len(), positions.len());
+    if at.is_empty() || m < 2 || params.len() != n || at.iter().any(|&s| s + 1 >= m) {
+        return Ok(None);
+    }
+    // The windows of old vertices [lo, hi] refitted, merged where they overlap.
+    let mut windows: Vec<(usize, usize)> = Vec::new();
+    for &s in at {
+        let (lo, hi) = (s.saturating_sub(margin), (s + 1 + margin).min(m - 1));
+        match windows.last_mut() {
+            Some(w) if lo <= w.1 => w.1 = w.1.max(hi),
+            _ => windows.push((lo, hi)),
+        }
+    }
+    // Each position's place along the old polyline.
+    let last = (m - 1) as f64;
+    let pos: Vec<f64> = params.iter().map(|t| t * last).collect();
+    let mut out: Vec<Spliced<V>> = Vec::with_capacity(m);
+    let mut place = vec![0.0; n];
+    let mut changed: Vec<(usize, usize)> = Vec::with_capacity(windows.len());
+    // New place minus old place, past the windows spliced so far.
+    let mut shift = 0.0;
+    let (mut v, mut r) = (0, 0);
+    for &(lo, hi) in &windows {
+        out.extend((v..lo).map(Spliced::Old));
+        while r < n && pos[r] <= lo as f64 {
+            place[r] = pos[r] + shift;
+            r += 1;
+        }
+        let start = r;
+        while r < n && pos[r] < hi as f64 {
+            r += 1;
+        }
+        let (first, end) = (vertices[lo], vertices[hi]);
+        let mut sub_rows = vec![first];
+        let mut sub_of = Vec::with_capacity(r - start);
+        for p in &positions[start..r] {
+            if p != sub_rows.last().expect("the first vertex") && *p != end {
+                sub_rows.push(*p);
+            }
+            sub_of.push(sub_rows.len() - 1);
+        }
+        sub_rows.push(end);
+        if sub_rows.len() < 3 {
+            return Ok(None);
+        }
+        let rows_in = sub_rows.len();
+        let Some(WindowFit { interior, params }) = fit_window(sub_rows)? else {
+            return Ok(None);
+        };
+        if params.len() != rows_in {
+            return Ok(None);
+        }
+        let base = out.len() as f64;
+        // The window's ends are the old vertices exactly; its interior is the refit's.
+        out.push(Spliced::Old(lo));
+        let sub_last = (interior.len() + 1) as f64;
+        out.extend(interior.into_iter().map(Spliced::New));
+        for (i, &k) in (start..r).zip(&sub_of) {
+            place[i] = base + params[k] * sub_last;
+        }
+        shift = base + sub_last - hi as f64;
+        v = hi;
+        changed.push((start.saturating_sub(1), r.min(n - 1)));
+    }
+    out.extend((v..m).map(Spliced::Old));
+    while r < n {
+        place[r] = pos[r] + shift;
+        r += 1;
+    }
+    let new_last = (out.len() - 1) as f64;
+    let mut params: Vec<f64> = place
+        .iter()
+        .map(|p| (p / new_last).clamp(0.0, 1.0))
+        .collect();
+    params[0] = 0.0;
+    params[n - 1] = 1.0;
+    for i in 1..n {
+        params[i] = params[i].max(params[i - 1]);
+    }
+    Ok(Some(Splice {
+        vertices: out,
+        params,
+        place,
+        changed,
+    }))
 }
 
 /// The two-way distance between the positions `first ..= last` of a line and the stretch of
@@ -321,6 +402,28 @@ mod tests {
         SphericalBSpline::try_new(1, clamped_uniform_knots(ctrl.len(), 1), ctrl).unwrap()
     }
 
+    /// The island as a Polygon's first ring.
+    fn ring_ref(value: &Value) -> LineRef<'_> {
+        LineRef {
+            value,
+            pointer: "/coordinates/0",
+            path: &[0],
+            closed: true,
+        }
+    }
+
+    static OUTPUT: std::sync::LazyLock<OutputOptions> =
+        std::sync::LazyLock::new(OutputOptions::default);
+    static LIMITS: std::sync::LazyLock<Limits> = std::sync::LazyLock::new(Limits::default);
+
+    /// The default output and limits.
+    fn spec() -> OutputSpec<'static> {
+        OutputSpec {
+            output: &OUTPUT,
+            limits: &LIMITS,
+        }
+    }
+
     fn field(out: &CurveOutput, k: &str) -> f64 {
         out.report.fields[k].as_f64().unwrap()
     }
@@ -332,17 +435,8 @@ mod tests {
         // positions are within 75 m of the new ring, the whole ring within 300 m, and the
         // report says so.
         let value = island();
-        let src = LineRef {
-            value: &value,
-            pointer: "/coordinates/0",
-            path: &[0],
-            closed: true,
-        };
-        let (output, limits) = (OutputOptions::default(), Limits::default());
-        let out = OutputSpec {
-            output: &output,
-            limits: &limits,
-        };
+        let src = ring_ref(&value);
+        let out = spec();
         let options = FitOptions::faithful();
         let old = fit_line_to_tolerance(src, &options, 300.0, None, out).unwrap();
         let kept = old.kept.as_deref().expect("a polyline is kept");
@@ -412,17 +506,8 @@ mod tests {
         // span, cut at fractional places, against the whole line's measurement segment by
         // segment (each to 1 % of the tolerance).
         let value = island();
-        let src = LineRef {
-            value: &value,
-            pointer: "",
-            path: &[],
-            closed: true,
-        };
-        let (output, limits) = (OutputOptions::default(), Limits::default());
-        let out = OutputSpec {
-            output: &output,
-            limits: &limits,
-        };
+        let src = ring_ref(&value);
+        let out = spec();
         let old = fit_line_to_tolerance(src, &FitOptions::faithful(), 300.0, None, out).unwrap();
         let kept = old.kept.as_deref().unwrap();
         let spline = spline_of(kept);
@@ -470,17 +555,8 @@ mod tests {
         // Nothing kept (a fit in time, a smooth curve, an interpolation): the caller refits
         // whole.
         let value = island();
-        let src = LineRef {
-            value: &value,
-            pointer: "",
-            path: &[],
-            closed: true,
-        };
-        let (output, limits) = (OutputOptions::default(), Limits::default());
-        let out = OutputSpec {
-            output: &output,
-            limits: &limits,
-        };
+        let src = ring_ref(&value);
+        let out = spec();
         let options = FitOptions::faithful();
         let mut old = fit_line_to_tolerance(src, &options, 300.0, None, out).unwrap();
         assert!(

@@ -2,6 +2,7 @@
 //! measured as returned.
 
 use super::*;
+use crate::earth::curve::{splice_windows, Splice, Spliced, WindowFit};
 use crate::sphere::compress::tolerance::POLYLINE_FIRST_SHARE;
 
 /// Fits one arc to the tolerance with pinned ends (see the module docs), rounds it, samples it
@@ -30,7 +31,8 @@ pub(super) fn fit_arc(
 /// (ascending indices of `old.dense`: from point `i` to `i + 1`), where it meets another arc
 /// or itself: each run of meeting segments, with `margin` old vertices on either side, is
 /// refitted as a polyline pinned at the old vertices that bound it, through the positions
-/// between them, and spliced in; the rest of the arc is kept as it was.
+/// between them, and spliced in; the rest of the arc is kept as it was
+/// ([`splice_windows`], as rings fitted per feature are).
 ///
 /// Refitting a whole arc for one meeting stored a long coast's every stretch at the tighter
 /// tolerance: on world-atlas countries-10m at 1 km the coverage stored 283,794 numbers with
@@ -51,104 +53,50 @@ pub(super) fn refit_around(
     let written_as_vertices = old.spline.degree() == 1
         && old.spline.has_clamped_uniform_knots()
         && old.control_ll == old.dense_ll;
-    if at.is_empty() || !written_as_vertices || at.iter().any(|&s| s + 1 >= m) {
+    if !written_as_vertices {
         return Ok(None);
     }
     let (rows, _) = arc_rows(points_in, closed)?;
-    let n = rows.len();
-    if old.params.len() != n {
-        return Ok(None);
-    }
-    // The windows of old vertices [lo, hi] refitted, merged where they overlap.
-    let mut windows: Vec<(usize, usize)> = Vec::new();
-    for &s in at {
-        let (lo, hi) = (s.saturating_sub(margin), (s + 1 + margin).min(m - 1));
-        match windows.last_mut() {
-            Some(w) if lo <= w.1 => w.1 = w.1.max(hi),
-            _ => windows.push((lo, hi)),
-        }
-    }
     let ctrl = old.spline.control_points();
-    let vertex = |k: usize| -> [f64; 3] {
-        let c = ctrl.get(k);
-        [c[0], c[1], c[2]]
-    };
-    // Each position's place along the old polyline: segment index plus the share of it.
-    let last = (m - 1) as f64;
-    let pos: Vec<f64> = old.params.iter().map(|t| t * last).collect();
-    let mut out: Vec<[f64; 3]> = Vec::with_capacity(m);
-    let mut out_ll: Vec<[f64; 2]> = Vec::with_capacity(m);
-    let mut new_pos = vec![0.0; n];
-    // New place minus old place, past the windows spliced so far.
-    let mut shift = 0.0;
-    let (mut v, mut r) = (0, 0);
-    for &(lo, hi) in &windows {
-        for k in v..lo {
-            out.push(vertex(k));
-            out_ll.push(old.control_ll[k]);
-        }
-        while r < n && pos[r] <= lo as f64 {
-            new_pos[r] = pos[r] + shift;
-            r += 1;
-        }
-        let start = r;
-        while r < n && pos[r] < hi as f64 {
-            r += 1;
-        }
-        // The window's line: its first vertex, its positions (each once), its last vertex.
-        let (first, end) = (vertex(lo), vertex(hi));
-        let mut sub_rows = vec![first];
-        let mut sub_of = Vec::with_capacity(r - start);
-        for row in &rows[start..r] {
-            if row != sub_rows.last().expect("the first vertex") && *row != end {
-                sub_rows.push(*row);
-            }
-            sub_of.push(sub_rows.len() - 1);
-        }
-        sub_rows.push(end);
-        if sub_rows.len() < 3 {
-            return Ok(None);
-        }
+    let vertices: Vec<[f64; 3]> = (0..m)
+        .map(|k| {
+            let c = ctrl.get(k);
+            [c[0], c[1], c[2]]
+        })
+        .collect();
+    let spliced = splice_windows(&vertices, &old.params, &rows, (at, margin), |sub_rows| {
         let sub = fit_rows(sub_rows, false, false, tolerance, 1, parameterization, job)?;
         let ms = sub.control_ll.len();
         if sub.spline.degree() != 1 || !sub.spline.has_clamped_uniform_knots() || ms < 2 {
             return Ok(None);
         }
-        let base = out.len() as f64;
-        // The window's ends are the old vertices exactly; its interior is the refit's.
-        out.push(first);
-        out_ll.push(old.control_ll[lo]);
         let sub_ctrl = sub.spline.control_points();
-        for k in 1..ms - 1 {
-            let c = sub_ctrl.get(k);
-            out.push([c[0], c[1], c[2]]);
-            out_ll.push(sub.control_ll[k]);
-        }
-        let sub_last = (ms - 1) as f64;
-        for (i, &k) in (start..r).zip(&sub_of) {
-            new_pos[i] = base + sub.params[k] * sub_last;
-        }
-        shift = base + sub_last - hi as f64;
-        v = hi;
-    }
-    for k in v..m {
-        out.push(vertex(k));
-        out_ll.push(old.control_ll[k]);
-    }
-    while r < n {
-        new_pos[r] = pos[r] + shift;
-        r += 1;
-    }
-    let new_last = (out.len() - 1) as f64;
-    let mut params: Vec<f64> = new_pos
-        .iter()
-        .map(|p| (p / new_last).clamp(0.0, 1.0))
-        .collect();
-    params[0] = 0.0;
-    params[n - 1] = 1.0;
-    for i in 1..n {
-        params[i] = params[i].max(params[i - 1]);
-    }
+        let interior = (1..ms - 1)
+            .map(|k| {
+                let c = sub_ctrl.get(k);
+                ([c[0], c[1], c[2]], sub.control_ll[k])
+            })
+            .collect();
+        Ok(Some(WindowFit {
+            interior,
+            params: sub.params,
+        }))
+    })?;
+    let Some(Splice {
+        vertices: spliced,
+        params,
+        ..
+    }) = spliced
+    else {
+        return Ok(None);
+    };
+    let (out, out_ll): (Vec<[f64; 3]>, Vec<[f64; 2]>) = spliced
+        .into_iter()
+        .map(|v| match v {
+            Spliced::Old(k) => (vertices[k], old.control_ll[k]),
+            Spliced::New(new) => new,
+        })
+        .unzip();
     let knots = crate::sphere::curve::bspline::clamped_uniform_knots(out.len(), 1);
     let spline = PointSet::try_from_rows(&out)
         .and_then(|c| SphericalBSpline::try_new(1, knots, c))
