@@ -4,9 +4,7 @@
 use super::*;
 use crate::earth::curve::refit_line_around;
 use crate::earth::lonlat::m_to_rad;
-use crate::earth::validity::{
-    self_meetings, splice_margin, tighten, Drawn, LAST_RESORT_M, REFIT_ROUNDS,
-};
+use crate::earth::validity::{splice_around, tighten, Drawn, LAST_RESORT_M, REFIT_ROUNDS};
 use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
 use crate::sphere::FitOptions;
 
@@ -15,8 +13,8 @@ use crate::sphere::FitOptions;
 /// the sphere or as written ([`crate::earth::validity`]). At a loose tolerance a fitted ring can
 /// cut across a narrow inlet, touch its hole (Antarctica's peninsula at 10 km does) or an island
 /// nearby (the Curonian Spit and Lithuania's coast at 1 km); each ring of such a pair is
-/// refitted tighter, up to [`REFIT_ROUNDS`] times (around the meeting only where it can be), and its report gives the tolerance it was
-/// fitted to. Only tolerance fits tighten: a fit to a fixed number of control points, or an
+/// refitted tighter, up to [`REFIT_ROUNDS`] times (around the meeting only where it can be),
+/// and its report gives the tolerance it was fitted to. Only tolerance fits tighten: a fit to a fixed number of control points, or an
 /// interpolation, is what was asked for.
 pub(super) fn tighten_crossing_rings(
     jobs: &[CurveJob<'_>],
@@ -69,12 +67,8 @@ pub(super) fn tighten_crossing_rings(
 
 /// Ring `c` (fitted as `old`, to the job's tolerance `tolerance_m` or tighter) refitted at `t`
 /// around its segments `at` only ([`refit_line_around`]), where it meets another ring or
-/// itself, when that can be done, the ring then meets the job's tolerance and meets itself at
-/// no more segments than before. The last round ([`LAST_RESORT_M`]) refits whole rings.
-///
-/// A window pinned at the old vertices can fold back across the ring's own segments there,
-/// and a new meeting of a ring with itself is not always judged new where its input touches
-/// itself: the splice's own meetings are refitted with it, and it must not add any.
+/// itself, when that can be done and the ring then meets the job's tolerance
+/// ([`splice_around`]). The second round at [`LAST_RESORT_M`] refits whole rings.
 fn refit_around(
     c: &CurveJob<'_>,
     options: &FitOptions,
@@ -92,36 +86,29 @@ fn refit_around(
         return Ok(None);
     }
     let precision = job.output.precision;
-    let old_self = self_meetings(&old.points, precision);
-    let mut at = at.to_vec();
-    at.extend(old_self.iter().flat_map(|&(i, j)| [i, j]));
-    at.sort_unstable();
-    at.dedup();
-    let margin = splice_margin(tolerance_m, t);
-    // A splice that meets itself more is tried again with windows twice as wide, then four
-    // times, before the whole ring is refitted (as a coverage's arcs are).
-    for widen in [1, 2, 4] {
-        let Some(mut out) = refit_line_around(
-            c.line(),
-            options,
-            (tolerance_m, t),
-            old,
-            (&at, widen * margin),
-            output_spec(job),
-        )?
-        else {
-            return Ok(None);
-        };
-        job_tolerance_met(&mut out, tolerance_m);
-        let met = out.report.fields.get("tolerance_met") == Some(&Value::Bool(true));
-        if met
-            && !small_rings::collapsed(&out, precision)
-            && self_meetings(&out.points, precision).len() <= old_self.len()
-        {
-            return Ok(Some(out));
-        }
-    }
-    Ok(None)
+    splice_around(
+        (&old.points, at),
+        (tolerance_m, t, precision),
+        |o: &CurveOutput| o.points.as_slice(),
+        |at, margin| {
+            let out = refit_line_around(
+                c.line(),
+                options,
+                (tolerance_m, t),
+                old,
+                (at, margin),
+                output_spec(job),
+            )?;
+            Ok(out.map(|mut out| {
+                job_tolerance_met(&mut out, tolerance_m);
+                out
+            }))
+        },
+        |out| {
+            out.report.fields.get("tolerance_met") == Some(&Value::Bool(true))
+                && !small_rings::collapsed(out, precision)
+        },
+    )
 }
 
 /// A ring refitted tighter reports `tolerance_m` as what it was fitted to, and

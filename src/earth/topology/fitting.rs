@@ -74,47 +74,30 @@ impl ArcFitting<'_> {
         if old.tolerance_rad <= m_to_rad(validity::LAST_RESORT_M) {
             return Ok(None);
         }
-        let margin = validity::splice_margin(job_tolerance.tolerance_m, tolerance.tolerance_m);
         let _scope = self.job.cancel.enter();
         let pointer = &self.sources[self.arc_ring[a]].pointer;
-        // Where the arc meets itself too: such a meeting is excused when its input touches
-        // itself anywhere, and a whole refit used to part it by the way (world-atlas
-        // countries-10m at 5 km: India's, Sweden's, Myanmar's and Venezuela's coasts).
-        let old_self = validity::self_meetings(&old.dense, self.job.output.precision);
-        let mut at = at.to_vec();
-        at.extend(old_self.iter().flat_map(|&(i, j)| [i, j]));
-        at.sort_unstable();
-        at.dedup();
-        // A window pinned at the old vertices can fold back across the arc's own segments
-        // there, and a new meeting of an arc with itself is not always judged new (see
-        // above): the splice is kept only when the arc meets itself at no more segments than
-        // before (countries-10m at 5 km: India, Sweden, Myanmar and Venezuela were written
-        // invalid without this). One that does is tried again with windows twice as wide,
-        // then four times, before the whole arc is refitted (countries-10m at 5 km: 29 of
-        // 495 splices folded so; widened, the coverage stores 86,604 numbers rather than
-        // 90,498, and 49,458 rather than 60,640 at 20 km).
-        for widen in [1, 2, 4] {
-            let f = refit_around(
-                &self.input_arcs[a],
-                self.graph.arcs[a].closed,
-                old,
-                (&at, widen * margin),
-                tolerance,
-                self.parameterization,
-                self.job,
-            )
-            .map_err(|e| EarthError::new(pointer.clone(), e.problem))?;
-            let Some(f) = f else {
-                return Ok(None);
-            };
-            if tolerance_met_by(&f, job_tolerance)
-                && validity::self_meetings(&f.dense, self.job.output.precision).len()
-                    <= old_self.len()
-            {
-                return Ok(Some(f));
-            }
-        }
-        Ok(None)
+        validity::splice_around(
+            (&old.dense, at),
+            (
+                job_tolerance.tolerance_m,
+                tolerance.tolerance_m,
+                self.job.output.precision,
+            ),
+            |f: &FittedArc| f.dense.as_slice(),
+            |at, margin| {
+                refit_around(
+                    &self.input_arcs[a],
+                    self.graph.arcs[a].closed,
+                    old,
+                    (at, margin),
+                    tolerance,
+                    self.parameterization,
+                    self.job,
+                )
+                .map_err(|e| EarthError::new(pointer.clone(), e.problem))
+            },
+            |f| tolerance_met_by(f, job_tolerance),
+        )
     }
 
     /// Fits the arcs `which` in parallel, each to its tolerance; the first error in order wins.
