@@ -92,7 +92,7 @@ fn spanning_triangle(points: &[[f64; 3]]) -> Option<[usize; 3]> {
 /// Douglas–Peucker adds them), so that an islet wider than a triangle allows comes back within
 /// the tolerance with as few of its own positions as that needs. `None` when the ring has fewer
 /// than three distinct positions.
-fn kept_indices(points: &[[f64; 3]], tolerance_rad: Option<f64>) -> Option<Vec<usize>> {
+pub(crate) fn kept_indices(points: &[[f64; 3]], tolerance_rad: Option<f64>) -> Option<Vec<usize>> {
     let [a, b, c] = spanning_triangle(points)?;
     let last = points.len() - 1;
     // The closing repeat (if any) is the first position again: spans run to `end`.

@@ -1132,3 +1132,98 @@ fn planar_meetings_counts_crossings_and_touches_not_neighbours() {
     assert_eq!(planar_meetings(&touching, 8), 0);
     assert_eq!(planar_meetings(&touching, 7), 2);
 }
+
+/// An islet whose fit bounds no area is kept as a triangle of its own positions, as an arc: it
+/// is judged with its feature's other rings as any arc is. Bermuda (world-atlas 10m) at 5 km:
+/// kept only once its feature was rebuilt, after the arcs were judged, the islet's triangle
+/// crossed the main island's and GEOS found the feature invalid (as it did six more of the 10m
+/// countries whose input is valid: South Korea, Oman, the UAE, the United Kingdom, Egypt and
+/// the Faroes).
+#[test]
+fn an_islet_kept_small_is_judged_with_its_features_other_rings() {
+    let input = read_fixture_json("world_atlas_10m_bermuda.geojson");
+    assert!(geo_polygons(&input["features"][0]["geometry"]).is_valid());
+    let mut kept_seen = false;
+    for tolerance_m in [2000.0, 5000.0, 8000.0] {
+        let c = fit(&input, tolerance_m);
+        let o = &c.features[0];
+        let out = geo_polygons(&o["geometry"]);
+        assert!(
+            out.is_valid() && planar_meetings(&o["geometry"], 7) == 0,
+            "{tolerance_m} m: {:?} {}",
+            out.validation_errors(),
+            o["geometry"]
+        );
+        let fit = &o["properties"]["fit"];
+        assert_eq!(fit["tolerance_met"], true, "{tolerance_m} m: {fit}");
+        // Where the islet is kept small, it is listed, and written as an arc of the coverage.
+        for part in fit["parts"].as_array().unwrap() {
+            if part.get("small_ring").is_some() {
+                kept_seen = true;
+                assert_eq!(part["small_ring"], "kept_as_triangle", "{part}");
+                assert_eq!(part["arcs"].as_array().unwrap().len(), 1, "{part}");
+                assert!(!fit["kept_rings"].as_array().unwrap().is_empty(), "{fit}");
+            }
+        }
+        // The feature's bound covers every input position.
+        let d = worst_vertex_distance_m(&input["features"][0]["geometry"], &o["geometry"]);
+        assert!(
+            d <= tolerance_m,
+            "{tolerance_m} m: an input vertex {d} m off"
+        );
+    }
+    assert!(
+        kept_seen,
+        "the islet was kept small at none of the tolerances"
+    );
+}
+
+/// A ring on the other side of another than its input was, with no edges meeting, is refitted
+/// until it is not. Egypt and Azerbaijan (world-atlas 10m) at 20 km: Egypt's fitted coast
+/// swallowed a Red Sea islet (GEOS: nested shells) and Azerbaijan's shell moved past its hole
+/// (hole outside shell), per feature and shared; shared, a kept islet also crossed the coast.
+#[test]
+fn a_ring_swallowed_by_another_with_no_edges_meeting_is_refitted() {
+    let path = fixture_path("world_atlas_10m_egypt_azerbaijan.geojson");
+    let input = read_fixture_json("world_atlas_10m_egypt_azerbaijan.geojson");
+    let features = input["features"].as_array().unwrap();
+    for f in features {
+        assert!(
+            geo_polygons(&f["geometry"]).is_valid(),
+            "{}",
+            f["properties"]
+        );
+    }
+    for mode in ["per-feature", "shared"] {
+        let o = run_spherefit(
+            &[
+                "fit",
+                "--tolerance-m",
+                "20000",
+                "--topology",
+                mode,
+                "-q",
+                &path,
+            ],
+            None,
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out: Value = serde_json::from_slice(&o.stdout).unwrap();
+        for (f, o) in features.iter().zip(out["features"].as_array().unwrap()) {
+            let name = &f["properties"]["name"];
+            let shape = geo_polygons(&o["geometry"]);
+            assert!(
+                shape.is_valid(),
+                "{mode} {name}: {:?}",
+                shape.validation_errors()
+            );
+            assert_eq!(planar_meetings(&o["geometry"], 7), 0, "{mode} {name}");
+            assert_eq!(
+                o["properties"]["fit"]["tolerance_met"], true,
+                "{mode} {name}"
+            );
+            let d = worst_vertex_distance_m(&f["geometry"], &o["geometry"]);
+            assert!(d <= 20_000.0, "{mode} {name}: an input vertex {d} m off");
+        }
+    }
+}

@@ -114,6 +114,100 @@ pub(super) fn refit_around(
     .map(Some)
 }
 
+/// A closed arc (a whole ring, `points_in` closed by a repeat of its first position) whose fit
+/// bounded no area, kept as a polyline through the triangle of three of its own positions that
+/// spans it, with more of them where an input position would be farther than the tolerance
+/// (less the grid's rounding) from it ([`small_rings::kept_indices`], as a ring fitted per
+/// feature is kept), rounded, measured and written as any arc is.
+///
+/// Kept so, the ring is an arc the validity check sees: kept only when its feature was rebuilt,
+/// a triangle went unchecked and could cross its feature's other rings (world-atlas
+/// countries-10m at 5 km: Bermuda's islet across its main island, and six more features
+/// GEOS found invalid whose input is valid). Refitted tighter, it keeps more of its positions.
+///
+/// `None` when the ring has fewer than three distinct positions, when they round to fewer on
+/// the grid, or when the kept polyline is not within the tolerance as written: the feature is
+/// then rebuilt with the ring kept apart, as before.
+pub(super) fn keep_arc(
+    points_in: &[[f64; 3]],
+    tolerance: ToleranceRule,
+    job: &Job,
+) -> Result<Option<FittedArc>, EarthError> {
+    let n = points_in.len().saturating_sub(1);
+    if n < 3 || points_in[0] != points_in[n] {
+        return Ok(None);
+    }
+    let target = (tolerance.tol_rad - tolerance.rounding_bound_rad()).max(0.5 * tolerance.tol_rad);
+    let Some(idx) = small_rings::kept_indices(points_in, Some(target)) else {
+        return Ok(None);
+    };
+    // Started at the first kept position, so that the positions' parameters rise along it.
+    let start = idx[0];
+    let mut rows: Vec<[f64; 3]> = (0..n).map(|k| points_in[(start + k) % n]).collect();
+    rows.push(rows[0]);
+    let kept: Vec<usize> = idx.iter().map(|&i| (i + n - start) % n).collect();
+    let kept: Vec<usize> = kept[..kept.len() - 1]
+        .iter()
+        .copied()
+        .chain(std::iter::once(n))
+        .collect();
+    let line = ArcLine::new(&rows, true, tolerance, job)?;
+    let control_ll: Vec<[f64; 2]> = kept
+        .iter()
+        .map(|&i| {
+            let (lon, lat) = unit_to_lonlat(&rows[i]);
+            [line.round(lon), line.round(lat)]
+        })
+        .collect();
+    if small_rings::collapsed_lonlat(&control_ll) {
+        return Ok(None);
+    }
+    let vertices: Vec<[f64; 3]> = control_ll
+        .iter()
+        .map(|p| crate::earth::lonlat::lonlat_to_unit(p[0], p[1]))
+        .collect();
+    let m = vertices.len();
+    let knots = crate::sphere::curve::bspline::clamped_uniform_knots(m, 1);
+    let spline = PointSet::try_from_rows(&vertices)
+        .and_then(|c| SphericalBSpline::try_new(1, knots, c))
+        .map_err(|e| sphere_error(e, "", &[]))?;
+    // Each position's parameter: its share of the input's length along the span it lies in.
+    let step = |a: &[f64; 3], b: &[f64; 3]| {
+        let d: f64 = (0..3).map(|k| a[k] * b[k]).sum();
+        d.clamp(-1.0, 1.0).acos()
+    };
+    let mut params = vec![0.0; n + 1];
+    for (s, w) in kept.windows(2).enumerate() {
+        let lengths: Vec<f64> = std::iter::once(0.0)
+            .chain((w[0]..w[1]).scan(0.0, |acc, i| {
+                *acc += step(&rows[i], &rows[i + 1]);
+                Some(*acc)
+            }))
+            .collect();
+        let total = lengths[lengths.len() - 1];
+        for (k, len) in lengths.iter().enumerate() {
+            let frac = if total > 0.0 { len / total } else { 0.0 };
+            params[w[0] + k] = (s as f64 + frac) / (m - 1) as f64;
+        }
+    }
+    let measured = line.measure(&spline, &params)?;
+    if !line.met(&measured) {
+        return Ok(None);
+    }
+    let arc = line.finish(ArcCurve {
+        spline,
+        control_ll,
+        rule: KnotRule::Uniform,
+        measured,
+        seam: Some("corner"),
+        params,
+    })?;
+    Ok(Some(FittedArc {
+        small_ring: Some(small_rings::Kept::Triangle),
+        ..arc
+    }))
+}
+
 /// The positions an arc is fitted through: an open arc's as they are; a closed one's started
 /// at its sharpest corner (a C0 seam there costs nothing), with whether that corner is
 /// smooth.
@@ -419,6 +513,7 @@ impl<'a> ArcLine<'a> {
             tolerance_rad: self.tolerance.tol_rad,
             spline,
             params,
+            small_ring: None,
         })
     }
 }

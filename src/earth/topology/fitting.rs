@@ -43,15 +43,26 @@ impl ArcFitting<'_> {
             .cancel
             .check()
             .map_err(|e| EarthError::new(pointer.clone(), Problem::Fit(e)))?;
-        fit_arc(
-            &self.input_arcs[a],
-            self.graph.arcs[a].closed,
+        let points = &self.input_arcs[a];
+        let closed = self.graph.arcs[a].closed;
+        let at = |e: EarthError| EarthError::new(pointer.clone(), e.problem);
+        let fitted = fit_arc(
+            points,
+            closed,
             tolerance,
             self.degree_cap,
             self.parameterization,
             self.job,
         )
-        .map_err(|e| EarthError::new(pointer.clone(), e.problem))
+        .map_err(at)?;
+        // A whole ring whose fit bounds no area is kept as an arc ([`keep_arc`]), unless such
+        // rings are to be dropped (then it is dropped when its feature is rebuilt).
+        if closed && !self.job.drop_small_rings && small_rings::collapsed_lonlat(&fitted.dense_ll) {
+            if let Some(kept) = keep_arc(points, tolerance, self.job).map_err(at)? {
+                return Ok(kept);
+            }
+        }
+        Ok(fitted)
     }
 
     /// Arc `a` (fitted as `old`) refitted to `tolerance` around its segments `at` only
@@ -71,7 +82,8 @@ impl ArcFitting<'_> {
         tolerance: ToleranceRule,
         job_tolerance: &ToleranceRule,
     ) -> Result<Option<FittedArc>, EarthError> {
-        if old.tolerance_rad <= m_to_rad(validity::LAST_RESORT_M) {
+        // A ring kept small is kept again, tighter, whole.
+        if old.tolerance_rad <= m_to_rad(validity::LAST_RESORT_M) || old.small_ring.is_some() {
             return Ok(None);
         }
         let _scope = self.job.cancel.enter();

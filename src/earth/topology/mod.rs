@@ -102,6 +102,10 @@ pub struct FittedArc {
     /// The parameters on `spline` of the arc's input positions as fitted (a closed arc's
     /// started at its sharpest corner), so that an arc can be refitted around a crossing only.
     pub params: Vec<f64>,
+    /// A closed arc (a whole ring) whose fitted outline bounded no area, kept as a triangle of
+    /// its own positions instead (`fit_arc::keep_arc`): kept so as an arc, it is judged for meetings
+    /// with its neighbours as any arc is, and a tighter refit keeps more of its positions.
+    pub small_ring: Option<small_rings::Kept>,
 }
 
 /// A fitted coverage: the document's features, in order, with polygon features rebuilt from

@@ -30,6 +30,8 @@ struct Polygons {
     ring_uses_out: PolygonArcs,
     /// Pointers of the rings kept small and of those dropped.
     kept: Vec<String>,
+    /// Some ring kept small is written apart from the arcs (not kept as an arc).
+    kept_apart: bool,
     dropped: Vec<String>,
     /// The largest two-way distance between a kept ring and its input (radians).
     kept_two_way_rad: f64,
@@ -154,7 +156,7 @@ impl Rebuild<'_> {
         out.insert("properties".into(), Value::Object(props));
         RebuiltFeature {
             feature: Value::Object(out),
-            rings: (!p.split_any && p.kept.is_empty() && p.dropped.is_empty())
+            rings: (!p.split_any && !p.kept_apart && p.dropped.is_empty())
                 .then_some(p.ring_uses_out),
             two_way_rad: tw,
             max_error_rad: err,
@@ -182,6 +184,7 @@ impl Rebuild<'_> {
         let mut parts = Vec::new();
         let mut ring_uses_out = Vec::new();
         let mut kept: Vec<String> = Vec::new();
+        let mut kept_apart = false;
         let mut kept_two_way_rad: f64 = 0.0;
         let mut dropped: Vec<String> = Vec::new();
         for (pi, poly) in polys.iter().enumerate() {
@@ -214,10 +217,18 @@ impl Rebuild<'_> {
                         continue;
                     }
                     Some(ring) => {
-                        parts.push(json!({
+                        let mut part = json!({
                             "path": path,
                             "arcs": uses.iter().map(ArcUse::topojson_index).collect::<Vec<_>>(),
-                        }));
+                        });
+                        // A whole ring kept small as an arc (fit_arc::keep_arc).
+                        if let [u] = &uses[..] {
+                            if let Some(how) = fitted[u.arc].small_ring {
+                                part["small_ring"] = json!(how.name());
+                                kept.push(sources[*ri].pointer.clone());
+                            }
+                        }
+                        parts.push(part);
                         arcs_used.extend(uses.iter().map(|u| u.arc));
                         ll_rings.push(ring);
                     }
@@ -251,6 +262,7 @@ impl Rebuild<'_> {
                             .max(small_rings::kept_two_way_rad(&rings[*ri].points, &written));
                         parts.push(json!({"path": path, "arcs": [], "small_ring": how.name()}));
                         kept.push(sources[*ri].pointer.clone());
+                        kept_apart = true;
                         ll_rings.push(ring);
                     }
                 }
@@ -313,6 +325,7 @@ impl Rebuild<'_> {
             parts,
             ring_uses_out,
             kept,
+            kept_apart,
             dropped,
             kept_two_way_rad,
         }
