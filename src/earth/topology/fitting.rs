@@ -170,19 +170,13 @@ fn tighten(
     tolerance: ToleranceRule,
 ) -> Result<FittedArcs, EarthError> {
     let (graph, input_arcs) = (fitting.graph, &fitting.input_arcs);
-    // Rings by feature (exteriors, holes, the polygons of a MultiPolygon), so holes are checked
-    // against their shell and islands against each other.
-    let mut feature_rings: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for (ri, src) in fitting.sources.iter().enumerate() {
-        feature_rings.entry(src.feature).or_default().push(ri);
-    }
-    let groups: Vec<Vec<usize>> = feature_rings.into_values().collect();
+    let opened = open_collapsed_rings(fitting, &mut fitted, tolerance)?;
     // Judged as written at the output's precision, as per feature.
     let input = Drawn::new(
         input_arcs.iter().map(Vec::as_slice).collect(),
         Some(fitting.job.output.precision),
     );
-    let pairs = arc_pairs(graph, &groups, &input, 2.0 * tolerance.tol_rad);
+    let pairs = arc_pairs(graph, &input, 2.0 * tolerance.tol_rad);
     let run = |fitted: &mut Vec<FittedArc>, grid_multiple: u32| {
         validity::tighten(
             &input,
@@ -192,6 +186,8 @@ fn tighten(
             fitted,
             |f: &FittedArc| f.dense.as_slice(),
             |a, t, old: &FittedArc, at: &[usize]| {
+                // No looser than a collapsed ring's arcs were opened at (else it closes again).
+                let t = t.min(opened[a]);
                 let rule =
                     ToleranceRule::new(t, tolerance.precision).with_grid_multiple(grid_multiple);
                 if let Some(f) = fitting.refit_around(a, old, at, rule, &tolerance)? {
@@ -212,6 +208,9 @@ fn tighten(
         mut tolerance_m,
         left: mut crossings_left,
     } = run(&mut fitted, tolerance.grid_multiple)?;
+    for (t, o) in tolerance_m.iter_mut().zip(&opened) {
+        *t = t.min(*o);
+    }
     let mut grid_multiple = tolerance.grid_multiple;
     if !crossings_left.is_empty() && grid_multiple > 1 {
         // A coarse grid can draw a small ring's own input meeting itself where the decimal
@@ -239,15 +238,67 @@ fn tighten(
     })
 }
 
+/// Rings whose fitted outline bounds no area (a small enclave with a land border, whose arcs
+/// fit as one straight segment between the same two junctions, or a ring of one arc from a
+/// junction back to it) have their arcs refitted at half the tolerance, up to
+/// [`OPEN_ROUNDS`] times, until it does (an island is kept as an arc first: `keep_arc`); each arc's
+/// tolerance (metres) is returned. Kept apart from the arcs, as such a ring was until
+/// 2026-12-06, its triangle of input positions overlapped its neighbour, whose side of the
+/// border is the shared arc: at 5 km Melilla overlapped Morocco, and Dhekelia Cyprus. With
+/// `drop_small_rings`, they are left to be dropped.
+fn open_collapsed_rings(
+    fitting: &ArcFitting<'_>,
+    fitted: &mut [FittedArc],
+    tolerance: ToleranceRule,
+) -> Result<Vec<f64>, EarthError> {
+    let graph = fitting.graph;
+    let mut tolerance_m = vec![tolerance.tolerance_m; fitted.len()];
+    if fitting.job.drop_small_rings {
+        return Ok(tolerance_m);
+    }
+    for _ in 0..OPEN_ROUNDS {
+        let mut arcs: Vec<usize> = graph
+            .rings
+            .iter()
+            .filter(|uses| {
+                !uses.is_empty() && small_rings::collapsed_lonlat(&ring_lonlat(uses, fitted))
+            })
+            .flat_map(|uses| uses.iter().map(|u| u.arc))
+            .collect();
+        arcs.sort_unstable();
+        arcs.dedup();
+        if arcs.is_empty() {
+            break;
+        }
+        let refits = fitting.fit_many(&arcs, |a| {
+            ToleranceRule::new(0.5 * tolerance_m[a], tolerance.precision)
+                .with_grid_multiple(tolerance.grid_multiple)
+        })?;
+        for (&a, f) in arcs.iter().zip(refits) {
+            tolerance_m[a] *= 0.5;
+            fitted[a] = FittedArc {
+                tolerance_met: tolerance_met_by(&f, &tolerance),
+                ..f
+            };
+        }
+    }
+    Ok(tolerance_m)
+}
+
+/// How many times [`open_collapsed_rings`] halves the tolerance of a collapsed ring's arcs
+/// (to T/64); a ring still collapsed is then kept apart from the arcs.
+const OPEN_ROUNDS: usize = 6;
+
 /// The pairs of arcs (a <= b; (a, a) for an arc and itself) that could meet in a way that
-/// matters: arcs of one feature (`groups` lists each feature's rings) whose boxes come within
-/// `grow` of each other ([`Drawn::near_pairs`]), and arcs ending at one junction.
-fn arc_pairs(
-    graph: &ArcGraph,
-    groups: &[Vec<usize>],
-    drawn: &Drawn<'_>,
-    grow: f64,
-) -> Vec<(usize, usize)> {
+/// matters: any two arcs of the coverage whose boxes come within `grow` of each other
+/// ([`Drawn::near_pairs`]), whichever features use them, and arcs ending at one junction.
+///
+/// In a coverage an arc crossing another is an error wherever it is: until 2026-12-06 only
+/// arcs of one feature (and at one junction) were paired, and at 5 km the 10m countries came
+/// back with six pairs of neighbours overlapping where their input did not (Singapore over
+/// Malaysia's coast across the Johor Strait, Spain's islets off Morocco, the features of
+/// Cyprus).
+fn arc_pairs(graph: &ArcGraph, drawn: &Drawn<'_>, grow: f64) -> Vec<(usize, usize)> {
     let mut pairs = BTreeSet::new();
     let mut at_vertex: std::collections::HashMap<usize, Vec<usize>> = Default::default();
     for (a, arc) in graph.arcs.iter().enumerate() {
@@ -258,15 +309,8 @@ fn arc_pairs(
             }
         }
     }
-    for rings in groups {
-        let mut arcs: Vec<usize> = rings
-            .iter()
-            .flat_map(|&r| graph.rings[r].iter().map(|u| u.arc))
-            .collect();
-        arcs.sort_unstable();
-        arcs.dedup();
-        pairs.extend(drawn.near_pairs(&arcs, grow));
-    }
+    let all: Vec<usize> = (0..graph.arcs.len()).collect();
+    pairs.extend(drawn.near_pairs(&all, grow));
     for arcs in at_vertex.values() {
         for (i, &a) in arcs.iter().enumerate() {
             for &b in &arcs[i..] {
