@@ -258,9 +258,14 @@ fn runs_cross(
     if lp == 0 && lq == 0 {
         let (i, j) = (ip, iq);
         let (a, b, c, d) = (&p[i], &p[i + 1], &q[j], &q[j + 1]);
-        // Segments that share an end touch there (ends at a junction, a ring's seam).
+        // Segments that share an end touch there (ends at a junction, a ring's seam, a
+        // segment and the next). Within one line any other shared end is the line coming
+        // back to a position it passed, an out-and-back spike or a pinch, which GIS tools
+        // refuse: the 50m United States at 20 km per feature went into Tomales Bay and back
+        // to the same position, unseen.
         if a == c || a == d || b == c || b == d {
-            return false;
+            let seam = i == 0 && j + 2 == q.len() && q[0] == q[q.len() - 1];
+            return same && j != i + 1 && !seam && found(i, j);
         }
         return (test.meets)(a, b, c, d) && found(i, j);
     }
@@ -343,7 +348,14 @@ mod tests {
             let start = if same { i + 2 } else { 0 };
             for j in start..q.len().saturating_sub(1) {
                 let (a, b, c, d) = (&p[i], &p[i + 1], &q[j], &q[j + 1]);
-                if !(a == c || a == d || b == c || b == d) && segments_cross(a, b, c, d) {
+                // Within one line, a shared end other than at a ring's seam is a revisit.
+                let seam = i == 0 && j + 2 == q.len() && q[0] == q[q.len() - 1];
+                let meets = if a == c || a == d || b == c || b == d {
+                    same && !seam
+                } else {
+                    segments_cross(a, b, c, d)
+                };
+                if meets {
                     out.push((i, j));
                 }
             }
@@ -403,5 +415,37 @@ mod tests {
         assert!(polylines_cross(&straight, &other, false));
         let apart: Vec<[f64; 3]> = (0..10).map(|i| u(5.0, -0.5 + i as f64 * 0.1)).collect();
         assert!(!polylines_cross(&straight, &apart, false));
+    }
+
+    #[test]
+    fn a_line_back_at_a_position_it_passed_meets_itself() {
+        let line = |pts: &[(f64, f64)]| pts.iter().map(|&(a, b)| u(a, b)).collect::<Vec<_>>();
+        // A closed ring: its first and last segments share the seam, its neighbours their
+        // ends; none of that is a meeting.
+        let square = line(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.0, 0.0)]);
+        assert!(!polylines_cross(&square, &square, true));
+        // Out into a bay and back to the same position (0.5, 1): every pair of segments
+        // there that are not neighbours.
+        let spike = line(&[
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.0, 1.0),
+            (0.5, 1.0),
+            (0.5, 2.0),
+            (0.5, 1.0),
+            (0.0, 1.0),
+            (0.0, 0.0),
+        ]);
+        let b = RunBoxes::of(&spike, GREAT_CIRCLE.margin);
+        assert_eq!(
+            meeting_segments_boxed((&spike, &b), (&spike, &b), true, GREAT_CIRCLE),
+            vec![(2, 4), (2, 5), (3, 5)]
+        );
+        // Two lines sharing an end (arcs at a junction) do not meet there.
+        let (p, q) = (
+            line(&[(0.0, 0.0), (1.0, 0.0)]),
+            line(&[(1.0, 0.0), (2.0, 1.0)]),
+        );
+        assert!(!polylines_cross(&p, &q, false));
     }
 }
