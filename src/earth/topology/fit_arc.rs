@@ -4,6 +4,7 @@
 use super::*;
 use crate::earth::curve::{splice_windows, Splice, Spliced, WindowFit};
 use crate::sphere::compress::tolerance::POLYLINE_FIRST_SHARE;
+use crate::sphere::geometry::point::log_map;
 
 /// Fits one arc to the tolerance with pinned ends (see the module docs), rounds it, samples it
 /// and measures the curve as returned.
@@ -97,10 +98,7 @@ pub(super) fn refit_around(
             Spliced::New(new) => new,
         })
         .unzip();
-    let knots = crate::sphere::curve::bspline::clamped_uniform_knots(out.len(), 1);
-    let spline = PointSet::try_from_rows(&out)
-        .and_then(|c| SphericalBSpline::try_new(1, knots, c))
-        .map_err(|e| sphere_error(e, "", &[]))?;
+    let spline = polyline_spline(&out)?;
     let line = ArcLine::new(&rows, closed, tolerance, job)?;
     let measured = line.measure(&spline, &params)?;
     line.finish(ArcCurve {
@@ -167,40 +165,27 @@ pub(super) fn keep_arc(
         .map(|p| crate::earth::lonlat::lonlat_to_unit(p[0], p[1]))
         .collect();
     let m = vertices.len();
-    let knots = crate::sphere::curve::bspline::clamped_uniform_knots(m, 1);
-    let spline = PointSet::try_from_rows(&vertices)
-        .and_then(|c| SphericalBSpline::try_new(1, knots, c))
-        .map_err(|e| sphere_error(e, "", &[]))?;
+    let spline = polyline_spline(&vertices)?;
     // Each position's parameter: where it projects onto its span's edge (the nearest place on
     // the great circle, clamped to the edge and never back along it), so that its error is its
     // distance from the edge, which `kept_indices` bounds. (Its share of the input's length
     // along the span put a Norwegian islet of the 50m countries at 20 km over the tolerance.)
-    let dot = |a: &[f64; 3], b: &[f64; 3]| (0..3).map(|k| a[k] * b[k]).sum::<f64>();
-    let cross = |a: &[f64; 3], b: &[f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let angle = |a: &[f64; 3], b: &[f64; 3]| {
-        let c = cross(a, b);
-        dot(&c, &c).sqrt().atan2(dot(a, b))
-    };
+    let dot = |p: &[f64], q: &[f64]| (0..3).map(|k| p[k] * q[k]).sum::<f64>();
     let mut params = vec![0.0; n + 1];
     for (s, w) in kept.windows(2).enumerate() {
-        let (a, b) = (&vertices[s], &vertices[s + 1]);
-        let span = angle(a, b);
+        let a = &vertices[s];
+        // The tangent at `a` towards the edge's other end, as long as the edge: a position's
+        // angle from `a` along the edge over that length. Kept corners are never antipodal.
+        let towards = log_map(a, &vertices[s + 1]).ok();
+        let span = towards.as_deref().map_or(0.0, |t| dot(t, t).sqrt());
         let mut frac: f64 = 0.0;
         for (k, q) in rows[w[0]..=w[1]].iter().enumerate() {
-            let along = if span > 0.0 {
-                // The projection's angle from `a` towards `b` along their great circle.
-                let t = cross(a, b);
-                let tn = dot(&t, &t).sqrt();
-                let u = cross(&t.map(|x| x / tn), a);
-                (dot(q, &u).atan2(dot(q, a)) / span).clamp(0.0, 1.0)
-            } else {
-                0.0
+            let along = match &towards {
+                Some(t) if span > 0.0 => {
+                    let ahead = dot(q, t) / span;
+                    (ahead.atan2(dot(q, a)) / span).clamp(0.0, 1.0)
+                }
+                _ => 0.0,
             };
             frac = if k == 0 { 0.0 } else { frac.max(along) };
             if w[0] + k == w[1] {
@@ -225,6 +210,15 @@ pub(super) fn keep_arc(
         small_ring: Some(small_rings::Kept::Triangle),
         ..arc
     }))
+}
+
+/// The degree-1 spline on clamped uniform knots through `vertices`: a polyline written as its
+/// vertices (a splice, a ring kept small).
+fn polyline_spline(vertices: &[[f64; 3]]) -> Result<SphericalBSpline, EarthError> {
+    let knots = crate::sphere::curve::bspline::clamped_uniform_knots(vertices.len(), 1);
+    PointSet::try_from_rows(vertices)
+        .and_then(|c| SphericalBSpline::try_new(1, knots, c))
+        .map_err(|e| sphere_error(e, "", &[]))
 }
 
 /// The positions an arc is fitted through: an open arc's as they are; a closed one's started

@@ -291,7 +291,7 @@ const OPEN_ROUNDS: usize = 6;
 
 /// The pairs of arcs (a <= b; (a, a) for an arc and itself) that could meet in a way that
 /// matters: any two arcs of the coverage whose boxes come within `grow` of each other
-/// ([`Drawn::near_pairs`]), whichever features use them, and arcs ending at one junction.
+/// ([`Drawn::near_pairs`]), whichever features use them.
 ///
 /// In a coverage an arc crossing another is an error wherever it is: until 2026-12-06 only
 /// arcs of one feature (and at one junction) were paired, and at 5 km the 10m countries came
@@ -299,24 +299,7 @@ const OPEN_ROUNDS: usize = 6;
 /// Malaysia's coast across the Johor Strait, Spain's islets off Morocco, the features of
 /// Cyprus).
 fn arc_pairs(graph: &ArcGraph, drawn: &Drawn<'_>, grow: f64) -> Vec<(usize, usize)> {
-    let mut pairs = BTreeSet::new();
-    let mut at_vertex: std::collections::HashMap<usize, Vec<usize>> = Default::default();
-    for (a, arc) in graph.arcs.iter().enumerate() {
-        pairs.insert((a, a));
-        if !arc.closed {
-            for v in [arc.vertices[0], arc.vertices[arc.vertices.len() - 1]] {
-                at_vertex.entry(v).or_default().push(a);
-            }
-        }
-    }
+    // Arcs ending at one junction are among them: their boxes share the junction.
     let all: Vec<usize> = (0..graph.arcs.len()).collect();
-    pairs.extend(drawn.near_pairs(&all, grow));
-    for arcs in at_vertex.values() {
-        for (i, &a) in arcs.iter().enumerate() {
-            for &b in &arcs[i..] {
-                pairs.insert((a.min(b), a.max(b)));
-            }
-        }
-    }
-    pairs.into_iter().collect()
+    drawn.near_pairs(&all, grow)
 }

@@ -61,7 +61,6 @@ use crate::sphere::{PointSet, SphericalBSpline};
 use arcs::{ArcGraph, ArcUse, InputRing};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
-use std::collections::BTreeSet;
 
 pub use super::job::{OutputFormat, Topology};
 
