@@ -762,9 +762,9 @@ pub(super) fn finish_tolerance_fit(
 }
 
 /// The two-way distance reported for a fitted curve, and the curve's length.
-pub(super) struct ReportedTwoWay {
-    pub(super) upper_rad: f64,
-    pub(super) curve_length_rad: f64,
+pub(crate) struct ReportedTwoWay {
+    pub(crate) upper_rad: f64,
+    pub(crate) curve_length_rad: f64,
 }
 
 /// The two-way distance of `finished` (the fitter's polyline `r.spline` with its vertices
@@ -786,7 +786,7 @@ pub(super) struct ReportedTwoWay {
 /// at distances from B that differ by at most |BA − BA'| ≤ d(A, A'). So every point
 /// moves by at most 3·(d(A, A') + d(B, B')), and by the triangle inequality the Hausdorff
 /// distance of each piece, and so the bound, grows by at most the largest such move.
-fn moved_polyline_bound(
+pub(crate) fn moved_polyline_bound(
     r: &crate::sphere::ToleranceFit,
     finished: &SphericalBSpline,
     precision: f64,
