@@ -319,7 +319,7 @@ pub(crate) fn splice_windows<V>(
 /// the share of the next segment), to [`REPORT_TWO_WAY_PRECISION`] of `tol_rad`. The stretch
 /// is cut at the first and last positions' places, with knots at its vertices' places, so each
 /// position keeps its point on the curve. `None` when the stretch is a point.
-fn stretch_two_way(
+pub(crate) fn stretch_two_way(
     rows: &[[f64; 3]],
     points: &PointSet,
     place: &[f64],

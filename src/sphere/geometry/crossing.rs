@@ -90,7 +90,7 @@ fn sagitta(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     0.31 * c2 + 1e-15
 }
 
-/// Boxes of a polyline's segments and of runs of them: level 0 holds segment `i`'s box, level
+/// Boxes of a polyline's segments and of runs of them: level 0 is segment `i`'s box, level
 /// `l` the union of level `l - 1`'s boxes `2i` and `2i + 1` (runs of `2^l` consecutive
 /// segments). A polyline stays near itself, so the boxes of long runs are tight and two
 /// polylines are compared run against run, splitting only runs whose boxes meet.
@@ -98,9 +98,25 @@ fn sagitta(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 /// Built once per polyline by a caller that compares one polyline with many
 /// ([`polylines_meet_boxed`]): building them was three quarters of the crossing checks of a
 /// coverage fit (world-atlas countries-10m at 1 km, callgrind), each pair building both.
+/// Only runs of [`STORED_RUN`] segments and longer are kept; shorter ones are boxed again from
+/// their points when a descent reaches them. Keeping every level took 96 bytes a segment,
+/// and a coverage's checks of its input and its fit held about 90 MB of them on the 10m
+/// countries (a third of the run's peak memory, each page faulted in: docs/speed.md, "tenth
+/// session"); this keeps 12.
 pub struct RunBoxes {
-    levels: Vec<Vec<Box3>>,
+    /// `stored[k]`: the boxes of level [`STORED_FROM`] + k.
+    stored: Vec<Vec<Box3>>,
+    /// Segments of the polyline.
+    segments: usize,
+    /// The margin each segment's box is grown by.
+    margin: fn(&[f64; 3], &[f64; 3]) -> f64,
 }
+
+/// The lowest level of [`RunBoxes`] kept: runs of [`STORED_RUN`] segments.
+const STORED_FROM: usize = 3;
+
+/// Segments in a run of the lowest level kept.
+const STORED_RUN: usize = 1 << STORED_FROM;
 
 /// How two segments are judged: the margin a segment bulges out of its chord's box, and
 /// whether two segments (sharing no end) meet. Great-circle arcs on S^2 are
@@ -127,24 +143,29 @@ impl RunBoxes {
     /// The boxes of `points`' segments, each grown by `margin` (a [`SegmentTest`]'s), and of
     /// their runs.
     pub fn of(points: &[[f64; 3]], margin: fn(&[f64; 3], &[f64; 3]) -> f64) -> RunBoxes {
-        let segments: Vec<Box3> = points
-            .windows(2)
-            .map(|w| Box3::of(&[w[0], w[1]]).grown(margin(&w[0], &w[1])))
+        let segments = points.len().saturating_sub(1);
+        let lowest: Vec<Box3> = (0..segments)
+            .step_by(STORED_RUN)
+            .map(|s| segment_boxes(points, margin, s, (s + STORED_RUN).min(segments) - 1))
             .collect();
-        let mut levels = vec![segments];
-        while levels.last().is_some_and(|l| l.len() > 1) {
-            let below = levels.last().expect("a level");
+        let mut stored = vec![lowest];
+        while stored.last().is_some_and(|l| l.len() > 1) {
+            let below = stored.last().expect("a level");
             let up = below
                 .chunks(2)
                 .map(|c| c.iter().skip(1).fold(c[0], |b, o| b.union(o)))
                 .collect();
-            levels.push(up);
+            stored.push(up);
         }
-        RunBoxes { levels }
+        RunBoxes {
+            stored,
+            segments,
+            margin,
+        }
     }
 
     fn top(&self) -> usize {
-        self.levels.len() - 1
+        STORED_FROM + self.stored.len() - 1
     }
 
     /// The segments of run `i` at level `l`: `i·2^l ..` (at most `2^l` of them).
@@ -153,8 +174,34 @@ impl RunBoxes {
     }
 
     fn last(&self, l: usize, i: usize) -> usize {
-        (((i + 1) << l) - 1).min(self.levels[0].len() - 1)
+        (((i + 1) << l) - 1).min(self.segments - 1)
     }
+
+    /// Runs at level `l`.
+    fn runs(&self, l: usize) -> usize {
+        self.segments.div_ceil(1 << l)
+    }
+
+    /// The box of run `i` at level `l` (at least [`STORED_FROM`]).
+    fn run_box(&self, l: usize, i: usize) -> Box3 {
+        self.stored[l - STORED_FROM][i]
+    }
+}
+
+/// The union of the boxes of segments `first ..= last` of `points`, each grown by `margin`.
+fn segment_boxes(
+    points: &[[f64; 3]],
+    margin: fn(&[f64; 3], &[f64; 3]) -> f64,
+    first: usize,
+    last: usize,
+) -> Box3 {
+    (first..=last)
+        .map(|i| {
+            let (a, b) = (&points[i], &points[i + 1]);
+            Box3::of(&[*a, *b]).grown(margin(a, b))
+        })
+        .reduce(|u, b| u.union(&b))
+        .expect("a run holds a segment")
 }
 
 /// Whether two polylines (unit vectors) cross anywhere; with `same`, whether one polyline
@@ -252,33 +299,67 @@ fn runs_cross(
     if same && bq.last(lq, iq) < RunBoxes::first(lp, ip) + 2 {
         return false;
     }
-    if !bp.levels[lp][ip].meets(&bq.levels[lq][iq]) {
+    if !bp.run_box(lp, ip).meets(&bq.run_box(lq, iq)) {
         return false;
     }
-    if lp == 0 && lq == 0 {
-        let (i, j) = (ip, iq);
-        let (a, b, c, d) = (&p[i], &p[i + 1], &q[j], &q[j + 1]);
-        // Segments that share an end touch there (ends at a junction, a ring's seam, a
-        // segment and the next). Within one line any other shared end is the line coming
-        // back to a position it passed, an out-and-back spike or a pinch, which GIS tools
-        // refuse: the 50m United States at 20 km per feature went into Tomales Bay and back
-        // to the same position, unseen.
-        if a == c || a == d || b == c || b == d {
-            let seam = i == 0 && j + 2 == q.len() && q[0] == q[q.len() - 1];
-            return same && j != i + 1 && !seam && found(i, j);
+    if lp == STORED_FROM && lq == STORED_FROM {
+        // Two runs of the lowest level kept: their segments' boxes, then each pair of
+        // segments whose boxes meet.
+        let (i0, i1) = (RunBoxes::first(lp, ip), bp.last(lp, ip));
+        let (j0, j1) = (RunBoxes::first(lq, iq), bq.last(lq, iq));
+        let boxes = |points: &[[f64; 3]], margin: fn(&[f64; 3], &[f64; 3]) -> f64, k0, k1| {
+            let mut b = [None; STORED_RUN];
+            for k in k0..=k1 {
+                b[k - k0] = Some(segment_boxes(points, margin, k, k));
+            }
+            b
+        };
+        let sp = boxes(p, bp.margin, i0, i1);
+        let sq = if same && ip == iq {
+            sp
+        } else {
+            boxes(q, bq.margin, j0, j1)
+        };
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                if same && j < i + 2 {
+                    continue;
+                }
+                let (Some(u), Some(v)) = (sp[i - i0], sq[j - j0]) else {
+                    continue;
+                };
+                if !u.meets(&v) {
+                    continue;
+                }
+                let (a, b, c, d) = (&p[i], &p[i + 1], &q[j], &q[j + 1]);
+                // Segments that share an end touch there (ends at a junction, a ring's seam,
+                // a segment and the next). Within one line any other shared end is the line
+                // coming back to a position it passed, an out-and-back spike or a pinch,
+                // which GIS tools refuse: the 50m United States at 20 km per feature went
+                // into Tomales Bay and back to the same position, unseen.
+                let meets = if a == c || a == d || b == c || b == d {
+                    let seam = i == 0 && j + 2 == q.len() && q[0] == q[q.len() - 1];
+                    same && j != i + 1 && !seam
+                } else {
+                    (test.meets)(a, b, c, d)
+                };
+                if meets && found(i, j) {
+                    return true;
+                }
+            }
         }
-        return (test.meets)(a, b, c, d) && found(i, j);
+        return false;
     }
     // Split the larger run (the one higher up); its halves, when there.
     if lp >= lq {
         (0..2)
             .map(|h| 2 * ip + h)
-            .filter(|&i| i < bp.levels[lp - 1].len())
+            .filter(|&i| i < bp.runs(lp - 1))
             .any(|i| runs_cross(pair, bp, bq, (lp - 1, i), (lq, iq), found))
     } else {
         (0..2)
             .map(|h| 2 * iq + h)
-            .filter(|&j| j < bq.levels[lq - 1].len())
+            .filter(|&j| j < bq.runs(lq - 1))
             .any(|j| runs_cross(pair, bp, bq, (lp, ip), (lq - 1, j), found))
     }
 }

@@ -37,7 +37,11 @@ pub(super) fn search(
         // zigzag, and may store fewer numbers than a quadratic, on a smooth track (20 km at
         // 25 m: 23 numbers where a cubic stores 21), and such a line's smooth fits are cheap.
         // Rings (islets at 1 km) are still probed.
-        let short_open = |c: &Curve| !closed && c.spline.control_points().len() <= SHORT_OPEN;
+        let short_open = |c: &Curve| {
+            options.short_open_at_every_degree
+                && !closed
+                && c.spline.control_points().len() <= SHORT_OPEN
+        };
         let short_polyline = found
             .iter()
             .any(|(c, _)| c.spline.degree() == 1 && short_open(c));

@@ -210,6 +210,11 @@ pub struct ToleranceOptions {
     /// than the polyline has vertices, and proving so cost half the fitting time of a
     /// coastline.
     pub degree_probe: bool,
+    /// An open line whose polyline has few vertices (16 or fewer) is tried at every degree
+    /// whatever its turns, and by the seeded polyline fit too: a track's smooth stretch, whose
+    /// greedy polyline may zigzag within the band. Off, such lines are probed as rings are:
+    /// a coverage's arcs are pieces of rings, most of them short (see `degree`).
+    pub short_open_at_every_degree: bool,
     /// Measure the returned curve's two-way distance to 2 % of the tolerance for
     /// [`ToleranceFit::two_way_rad`]. Off, that field is the bound the fitter decided by
     /// (proven, at most the tolerance, but looser) and the length ratio is the decision's (a
@@ -252,6 +257,7 @@ impl Default for ToleranceOptions {
             max_control_points: None,
             pin_ends: false,
             degree_probe: true,
+            short_open_at_every_degree: true,
             measure_result: true,
             smooth_margin_rad: 0.0,
             polyline_first_share: VERTEX_SHARES[0],
@@ -286,6 +292,8 @@ impl ToleranceOptions {
         with_pin_ends(pin_ends: bool);
         /// Switches the degree probe ([`ToleranceOptions::degree_probe`]) on or off.
         with_degree_probe(degree_probe: bool);
+        /// Switches [`ToleranceOptions::short_open_at_every_degree`] on or off.
+        with_short_open_at_every_degree(short_open_at_every_degree: bool);
         /// Sets the margin kept by curves of degree >= 2 ([`ToleranceOptions::smooth_margin_rad`]).
         with_smooth_margin_rad(smooth_margin_rad: f64);
         /// Switches the greedy stabbing polyline ([`ToleranceOptions::stabbing`]) on or off.
