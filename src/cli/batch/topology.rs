@@ -93,9 +93,14 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
     phases.lap_with(&coverage.phases, "(rest of the fit)");
     let report = coverage.report.clone();
     let text = match format {
-        OutputFormat::TopoJson => crate::earth::topojson::to_bytes(
-            &crate::earth::topojson::to_topology(coverage, job.output.precision, job.carry),
-        ),
+        OutputFormat::TopoJson => {
+            let topology =
+                crate::earth::topojson::to_topology(coverage, job.output.precision, job.carry);
+            let bytes = crate::earth::topojson::to_bytes(&topology);
+            // Freed on the pool while the bytes are written.
+            rayon::spawn(move || drop(topology));
+            bytes
+        }
         OutputFormat::GeoJson => serde_json::to_vec(&coverage.into_feature_collection(job.carry))
             .map_err(|e| Failure::input(e.to_string()))?,
     };

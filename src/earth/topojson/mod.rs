@@ -140,7 +140,7 @@ pub fn to_topology(mut c: Coverage, precision: u32, carry: Carry) -> Value {
     let q = Quantisation::of_grid(precision, c.grid_multiple);
     let cells: Vec<Vec<Cell>> = c
         .arcs
-        .iter()
+        .par_iter()
         .map(|a| a.dense_ll.iter().map(|p| q.index(p[0], p[1])).collect())
         .collect();
     let index = ArcIndex::new(&cells);
@@ -192,17 +192,17 @@ pub fn to_topology(mut c: Coverage, precision: u32, carry: Carry) -> Value {
         remap_indices(g, &renumber);
     }
     let mut arcs: Vec<Value> = cells
-        .iter()
+        .par_iter()
         .zip(&used)
         .filter(|(_, &u)| u)
         .map(|(a, _)| q.arc_of_cells(a))
         .collect();
     arcs.extend(own);
-    let mut report = c.report;
+    let mut report = std::mem::take(&mut c.report);
     if carry != Carry::Geometry {
         report["splines"] = Value::Array(
             c.arcs
-                .iter()
+                .par_iter()
                 .zip(&used)
                 .filter(|(_, &u)| u)
                 .map(|(a, _)| compact_spline(a, &q).unwrap_or(Value::Null))
@@ -218,6 +218,10 @@ pub fn to_topology(mut c: Coverage, precision: u32, carry: Carry) -> Value {
     );
     out.insert("arcs".into(), Value::Array(arcs));
     out.insert("spherefit".into(), report);
+    // What is left of the coverage (its arcs' curves and dense points, the graph) is freed
+    // on the pool, off the caller's path: freed here it was a fifth of writing the output of
+    // the 10m countries, on one thread (docs/speed.md, "tenth session").
+    rayon::spawn(move || drop(c));
     Value::Object(out)
 }
 
@@ -455,7 +459,25 @@ pub fn to_bytes(topology: &Value) -> Vec<u8> {
         out.push(b',');
         out.extend(serde_json::to_vec(k).expect("a string serialises"));
         out.push(b':');
-        out.extend(serde_json::to_vec(&map[k]).expect("JSON values serialise"));
+        match &map[k] {
+            // The arcs (and any other array): items written in parallel, joined as
+            // serde_json joins them.
+            Value::Array(items) => {
+                let parts: Vec<Vec<u8>> = items
+                    .par_iter()
+                    .map(|v| serde_json::to_vec(v).expect("JSON values serialise"))
+                    .collect();
+                out.push(b'[');
+                for (i, p) in parts.iter().enumerate() {
+                    if i > 0 {
+                        out.push(b',');
+                    }
+                    out.extend_from_slice(p);
+                }
+                out.push(b']');
+            }
+            v => out.extend(serde_json::to_vec(v).expect("JSON values serialise")),
+        }
     }
     out.push(b'}');
     out

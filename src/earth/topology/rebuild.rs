@@ -145,8 +145,14 @@ impl Rebuild<'_> {
         );
         info.insert("geometry".into(), json!(kind));
         info.insert("parts".into(), Value::Array(p.parts));
-        let mut out = feature.as_object().cloned().unwrap_or_default();
-        out.remove("bbox");
+        // The feature's members but its geometry (replaced) and box (no longer its own).
+        let mut out: Map<String, Value> = feature
+            .as_object()
+            .into_iter()
+            .flatten()
+            .filter(|(k, _)| !matches!(k.as_str(), "geometry" | "bbox"))
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect();
         out.insert("geometry".into(), geometry);
         let mut props = match out.remove("properties") {
             Some(Value::Object(p)) => p,
