@@ -271,6 +271,12 @@ fn arc_rows(points_in: &[[f64; 3]], closed: bool) -> Result<(Vec<[f64; 3]>, bool
     Ok((rows, smooth_seam))
 }
 
+/// The share of the tolerance a coverage's arcs' greedy stabbing polyline is built to
+/// ([`ToleranceOptions::stabbing_share`]): against the default 0.95, 247,984 stored numbers
+/// instead of 262,158 on world-atlas countries-10m at 1 km, and no meeting left at 20 km
+/// where 0.95 left four.
+const COVERAGE_STABBING_SHARE: f64 = 0.99;
+
 /// [`fit_arc`] on the arc's positions as [`arc_rows`] gives them.
 fn fit_rows(
     rows: Vec<[f64; 3]>,
@@ -290,6 +296,13 @@ fn fit_rows(
     // the rest of the margin (world-atlas 50m countries at 1 km: 112,174 -> 97,716 stored
     // numbers, the TopoJSON 611 -> 541 KB).
     let mut target = tolerance.polyline_target_rad();
+    // The first fit, at the job's tolerance (not a refit tightened where arcs met).
+    let first_fit = match &job.operation {
+        crate::earth::Operation::FitToTolerance { tolerance_m, .. } => {
+            tolerance.tolerance_m >= *tolerance_m
+        }
+        _ => false,
+    };
     let mut topts = ToleranceOptions {
         parameterization,
         max_control_points: Some(points.len()),
@@ -297,11 +310,16 @@ fn fit_rows(
         measure_result: false,
         smooth_margin_rad: tolerance.polyline_target_rad() - tolerance.first_target_rad(),
         polyline_first_share: POLYLINE_FIRST_SHARE,
-        // The greedy stabbing polyline first, as on any line: world-atlas countries-10m at
-        // 1 km, TopoJSON, 2 threads, it fits the arcs in half the time of the seeded
-        // least-squares polyline (0.26 s against 0.53 s) for 5 % more stored numbers
-        // (249,618 against 237,638; mapshaper's file holds 322,646), for the coverage's goal
-        // against mapshaper's time (docs/speed.md, "tenth session").
+        // The first fit takes the greedy stabbing polyline first, as any line does, built to
+        // 0.99 of the tolerance: on world-atlas countries-10m, TopoJSON, 2 threads, it fits
+        // the coverage in 0.55 / 0.58 / 0.96 s instead of 0.92 / 1.02 / 1.66 s at 1 / 5 /
+        // 20 km, for 4 % / 10 % / 5 % more stored numbers (mapshaper's file at 1 km holds
+        // 30 % more). Refits, tightened where arcs met, keep the seeded least-squares
+        // polyline: its vertices stay inside the band, where the greedy's sit on its edge and
+        // meet their neighbours again (with the greedy there too, 5 km stored 118,710 numbers
+        // and left a meeting; docs/speed.md, "tenth session").
+        stabbing: first_fit,
+        stabbing_share: COVERAGE_STABBING_SHARE,
         // Arcs are pieces of rings: probed for smooth degrees as rings are, however short.
         short_open_at_every_degree: false,
         ..ToleranceOptions::default()
