@@ -248,22 +248,26 @@ pub fn fit_coverage(doc: Document, job: &Job) -> Result<Coverage, EarthError> {
     let _scope = job.cancel.enter();
     let mut phases = Phases::new();
     let mut input = read_coverage(&doc, job)?;
-    // The polygons' input coordinates are read (into `input`): freed now, on every thread,
-    // for the steps below to reuse. Held to the end they were the run's largest allocation
-    // (on the 10m countries about 90 MB of the peak's 230), and the later steps' memory was
-    // fresh pages, each faulted in (docs/speed.md, "tenth session").
+    // The polygons' input coordinates are read (into `input`): freed now, on the pool while
+    // the arc graph is built on this thread, for the steps below to reuse. Held to the end
+    // they were the run's largest allocation (on the 10m countries about 90 MB of the peak's
+    // 230), and the later steps' memory was fresh pages, each faulted in (docs/speed.md,
+    // "tenth session").
     let mut doc = doc;
-    doc.slots
-        .par_iter_mut()
+    let coordinates: Vec<Value> = doc
+        .slots
+        .iter_mut()
         .enumerate()
         .filter(|(fi, _)| input.polygon_kind[*fi].is_some())
-        .for_each(|(_, slot)| {
-            if let Source::Feature { feature, .. } = &mut slot.source {
-                if let Some(g) = feature.get_mut("geometry").and_then(Value::as_object_mut) {
-                    g.remove("coordinates");
-                }
-            }
-        });
+        .filter_map(|(_, slot)| match &mut slot.source {
+            Source::Feature { feature, .. } => feature
+                .get_mut("geometry")
+                .and_then(Value::as_object_mut)
+                .and_then(|g| g.remove("coordinates")),
+            Source::Spline(_) => None,
+        })
+        .collect();
+    rayon::spawn(move || drop(coordinates));
     phases.lap("read rings");
     // Features other than polygons are fitted one by one on the decimal grid: the coarser
     // grid of a TopoJSON coverage is only taken when every feature is written on it.
