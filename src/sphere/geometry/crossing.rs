@@ -98,7 +98,7 @@ fn sagitta(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 /// Built once per polyline by a caller that compares one polyline with many
 /// ([`polylines_meet_boxed`]): building them was three quarters of the crossing checks of a
 /// coverage fit (world-atlas countries-10m at 1 km, callgrind), each pair building both.
-/// Only runs of [`STORED_RUN`] segments and longer are kept; shorter ones are boxed again from
+/// Only runs of 8 segments and longer are kept; shorter ones are boxed again from
 /// their points when a descent reaches them. Keeping every level took 96 bytes a segment,
 /// and a coverage's checks of its input and its fit held about 90 MB of them on the 10m
 /// countries (a third of the run's peak memory, each page faulted in: docs/speed.md, "tenth

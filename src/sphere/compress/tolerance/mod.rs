@@ -241,7 +241,7 @@ pub struct ToleranceOptions {
     pub stabbing: bool,
     /// The share of the tolerance the greedy stabbing polyline is built to
     /// ([`STABBING_SHARE`] by default). A polyline's two-way distance is bounded in closed
-    /// form, tight to far less than the decision's 2 % ([`crate::sphere::certify::polyline`]),
+    /// form, tight to far less than the decision's 2 % (`sphere::certify::polyline`),
     /// so a caller may leave the decision less room: a coverage's first fit of its arcs takes
     /// 0.99 (`earth::topology`). Not the default: rings fitted per feature at 0.99 meet one
     /// another more often, and their refits cost more than the vertices saved (world-atlas
