@@ -50,7 +50,7 @@ pub use line::*;
 pub use output::*;
 pub use positions::*;
 pub use splice::refit_line_around;
-pub(crate) use splice::{splice_windows, stretch_two_way, Splice, Spliced, WindowFit};
+pub(crate) use splice::{splice_windows, spliced_two_way, Splice, Spliced, WindowFit};
 pub use stored::*;
 pub use times::*;
 pub use tolerance_rule::*;

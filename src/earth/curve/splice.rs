@@ -132,23 +132,16 @@ pub fn refit_line_around(
     let spline = PointSet::try_from_rows(&rows)
         .and_then(|c| SphericalBSpline::try_new(1, knots, c))
         .map_err(err)?;
-    // The two-way distance: the old bound holds for the stretches kept (each input segment
-    // there has the same stretch of curve as before), and the changed stretches are measured
-    // alone; measuring the whole ring again was a tenth of the run at 5 km.
-    let mut upper = kept.two_way_rad;
-    for &(first, last) in &changed {
-        let Some(d) = stretch_two_way(&rows, &points, &place, (first, last), line_rule.tol_rad)?
-        else {
-            upper = f64::INFINITY;
-            break;
-        };
-        upper = upper.max(d);
-    }
-    let tw = if upper.is_finite() {
-        ReportedTwoWay {
-            upper_rad: upper,
-            curve_length_rad: rows.windows(2).map(|w| angle_between(&w[0], &w[1])).sum(),
-        }
+    // Measuring the whole ring again was a tenth of the run at 5 km.
+    let spliced = spliced_two_way(
+        &rows,
+        &points,
+        (&place, &changed),
+        kept.two_way_rad,
+        line_rule.tol_rad,
+    )?;
+    let tw = if let Some(tw) = spliced {
+        tw
     } else {
         reported_two_way(
             &spline,
@@ -314,12 +307,38 @@ pub(crate) fn splice_windows<V>(
     }))
 }
 
+/// The two-way distance of a spliced polyline `rows` from the line's `points` (each position's
+/// place along `rows` in `place`) and its length: the old curve's bound `old_upper_rad` holds
+/// for the stretches kept (each input segment there has the same stretch of curve as before),
+/// and the `changed` stretches (first and last position of each) are measured alone
+/// ([`stretch_two_way`]). `None` when a changed stretch is a point: the caller measures the
+/// whole line. Rings fitted per feature and a coverage's arcs are spliced and measured so.
+pub(crate) fn spliced_two_way(
+    rows: &[[f64; 3]],
+    points: &PointSet,
+    (place, changed): (&[f64], &[(usize, usize)]),
+    old_upper_rad: f64,
+    tol_rad: f64,
+) -> Result<Option<ReportedTwoWay>, EarthError> {
+    let mut upper = old_upper_rad;
+    for &(first, last) in changed {
+        let Some(d) = stretch_two_way(rows, points, place, (first, last), tol_rad)? else {
+            return Ok(None);
+        };
+        upper = upper.max(d);
+    }
+    Ok(Some(ReportedTwoWay {
+        upper_rad: upper,
+        curve_length_rad: rows.windows(2).map(|w| angle_between(&w[0], &w[1])).sum(),
+    }))
+}
+
 /// The two-way distance between the positions `first ..= last` of a line and the stretch of
 /// the polyline `rows` they span (each position's place along it in `place`: vertex index plus
 /// the share of the next segment), to [`REPORT_TWO_WAY_PRECISION`] of `tol_rad`. The stretch
 /// is cut at the first and last positions' places, with knots at its vertices' places, so each
 /// position keeps its point on the curve. `None` when the stretch is a point.
-pub(crate) fn stretch_two_way(
+fn stretch_two_way(
     rows: &[[f64; 3]],
     points: &PointSet,
     place: &[f64],

@@ -2,9 +2,9 @@
 //! measured as returned.
 
 use super::*;
-use crate::earth::curve::{splice_windows, stretch_two_way, Splice, Spliced, WindowFit};
+use crate::earth::curve::{splice_windows, spliced_two_way, Splice, Spliced, WindowFit};
 use crate::sphere::compress::tolerance::POLYLINE_FIRST_SHARE;
-use crate::sphere::geometry::point::{angle_between, log_map};
+use crate::sphere::geometry::point::log_map;
 
 /// Fits one arc to the tolerance with pinned ends (see the module docs), rounds it, samples it
 /// and measures the curve as returned.
@@ -101,29 +101,18 @@ pub(super) fn refit_around(
         .unzip();
     let spline = polyline_spline(&out)?;
     let line = ArcLine::new(&rows, closed, tolerance, job)?;
-    // The two-way distance: the old bound holds for the stretches kept (each input segment
-    // there has the same stretch of curve as before), and the changed stretches are measured
-    // alone, as a ring fitted per feature is (`refit_line_around`); measuring the whole arc
-    // again was a third of the coverage's refits (docs/speed.md, "tenth session").
-    let mut upper = old.two_way_rad;
-    for &(first, last) in &changed {
-        match stretch_two_way(&out, &line.points, &place, (first, last), tolerance.tol_rad)? {
-            Some(d) => upper = upper.max(d),
-            None => {
-                upper = f64::INFINITY;
-                break;
-            }
-        }
-    }
-    let measured = if upper.is_finite() {
-        let errs = pointwise_errors(&spline, &line.points, &params);
-        Measured {
-            max_rad: errs.iter().fold(0.0f64, |a, &b| a.max(b)),
-            two_way_rad: upper,
-            curve_length_rad: out.windows(2).map(|w| angle_between(&w[0], &w[1])).sum(),
-        }
-    } else {
-        line.measure(&spline, &params)?
+    // The old bound for the stretches kept, the changed ones measured alone, as a ring fitted
+    // per feature is (`refit_line_around`): measuring the whole arc again was a third of the
+    // coverage's refits (docs/speed.md, "tenth session").
+    let measured = match spliced_two_way(
+        &out,
+        &line.points,
+        (&place, &changed),
+        old.two_way_rad,
+        tolerance.tol_rad,
+    )? {
+        Some(tw) => line.measured_with(&spline, &params, tw.upper_rad, tw.curve_length_rad),
+        None => line.measure(&spline, &params)?,
     };
     line.finish(ArcCurve {
         spline,
@@ -456,8 +445,6 @@ impl<'a> ArcLine<'a> {
     /// The max error at the positions, and the two-way distance and the curve's length.
     fn measure(&self, spline: &SphericalBSpline, params: &[f64]) -> Result<Measured, EarthError> {
         let points = &self.points;
-        let errs = pointwise_errors(spline, points, params);
-        let max = errs.iter().fold(0.0f64, |a, &b| a.max(b));
         let tw = two_way_distance(
             spline,
             points,
@@ -467,11 +454,7 @@ impl<'a> ArcLine<'a> {
                 .with_max_evaluations(4_000_000 + 400 * points.len()),
         )
         .map_err(|e| sphere_error(e, "", &[]))?;
-        Ok(Measured {
-            max_rad: max,
-            two_way_rad: tw.upper_rad,
-            curve_length_rad: tw.curve_length_rad,
-        })
+        Ok(self.measured_with(spline, params, tw.upper_rad, tw.curve_length_rad))
     }
 
     /// [`Self::measure`] of `rounded`, `fit`'s polyline with its vertices rounded, from the
@@ -487,12 +470,24 @@ impl<'a> ArcLine<'a> {
     ) -> Option<Measured> {
         let tw =
             crate::earth::curve::moved_polyline_bound(fit, rounded, 0.01 * self.tolerance.tol_rad)?;
-        let errs = pointwise_errors(rounded, &self.points, &fit.parameters);
-        Some(Measured {
+        Some(self.measured_with(rounded, &fit.parameters, tw.upper_rad, tw.curve_length_rad))
+    }
+
+    /// The max error of `spline` at the positions (at `params`), with a two-way distance and
+    /// a length known otherwise.
+    fn measured_with(
+        &self,
+        spline: &SphericalBSpline,
+        params: &[f64],
+        two_way_rad: f64,
+        curve_length_rad: f64,
+    ) -> Measured {
+        let errs = pointwise_errors(spline, &self.points, params);
+        Measured {
             max_rad: errs.iter().fold(0.0f64, |a, &b| a.max(b)),
-            two_way_rad: tw.upper_rad,
-            curve_length_rad: tw.curve_length_rad,
-        })
+            two_way_rad,
+            curve_length_rad,
+        }
     }
 
     fn met(&self, m: &Measured) -> bool {
