@@ -23,16 +23,10 @@ mod input;
 mod pipeline;
 mod topology;
 
-use super::Failure;
-use crate::earth::{
-    into_job, InterpolateSettings, Job, Limits, OperationKind, ParameterizationOption, RawOptions,
-    Topology,
-};
-use crate::sphere::{FitOptions, KnotPlacement, Solver};
-use clap::Args;
+use crate::cli::Failure;
+use crate::earth::job::{Job, Topology};
 use input::{Format, Input};
-use pipeline::{Fatal, Progress, Settings, Sink, Totals};
-use serde_json::json;
+use pipeline::{Fatal, Settings, Sink};
 use std::io::{self, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -44,10 +38,10 @@ mod summary;
 #[cfg(test)]
 mod tests;
 
-use args::*;
+use args::{evaluate_job, fit_job, interpolate_job, BatchArgs};
 pub(crate) use args::{EvaluateArgs, FitArgs, InterpolateArgs};
-use progress::*;
-use summary::*;
+use progress::TerminalProgress;
+use summary::Summary;
 
 /// `spherefit fit`: per feature, or (`--topology shared`) the input as one coverage.
 pub(crate) fn fit(a: FitArgs) -> Result<(), Failure> {

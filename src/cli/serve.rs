@@ -1,8 +1,8 @@
 //! `spherefit serve`: the HTTP service. Every flag has a `SPHEREFIT_*` environment variable;
 //! a flag given on the command line wins.
 
-use super::Failure;
-use crate::earth::Limits;
+use crate::cli::Failure;
+use crate::earth::job::Limits;
 use crate::service::{self, AppState, ServiceConfig};
 use clap::{Args, ValueEnum};
 use std::net::SocketAddr;

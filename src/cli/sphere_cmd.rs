@@ -1,14 +1,17 @@
 //! `spherefit sphere fit | interpolate | evaluate`: the math core on S^n, JSON in and out.
 
-use super::{read_json, write_json, Failure};
+use crate::cli::{read_json, write_json, Failure};
+use crate::document::beta::{curve_from_json, InterpolationDocument};
 use crate::document::pointer;
-use crate::document::{curve_from_json, InterpolationDocument};
 use crate::document::{tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::sphere::compress::tolerance::{fit_to_tolerance, ToleranceOptions};
+use crate::sphere::curve::SphericalCurve;
+use crate::sphere::fit;
+use crate::sphere::fit::gls_pia::{FitOptions, Solver, StepRule};
+use crate::sphere::fit::knots::{KnotPlacement, Parameterization};
 use crate::sphere::fit::options_check::{check_given_together, check_tolerance_fit};
-use crate::sphere::SphericalCurve;
-use crate::sphere::{fit, FitOptions, KnotPlacement, Parameterization, Solver, StepRule};
-use crate::sphere::{interpolate, BetaSolver, InputSite, InterpolationOptions, SphereError};
+use crate::sphere::interpolate::beta::{BetaSolver, InterpolationOptions};
+use crate::sphere::{interpolate, InputSite, SphereError};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 

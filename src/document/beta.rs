@@ -1,7 +1,7 @@
 //! The Beta-spline documents: a Beta-spline as JSON, the `interpolate` result, and reading any
 //! curve document (B-spline or Beta-spline) with errors that carry a JSON pointer.
 
-use super::{number_list, number_rows, pointer, spline_from_json, InputError};
+use crate::document::{number_list, number_rows, pointer, spline_from_json, InputError};
 use crate::sphere::curve::beta::{expand_shape_parameters, SphericalBetaSpline};
 use crate::sphere::curve::AnyCurve;
 use crate::sphere::geometry::point::{angle, Dynamic, PointSet};

@@ -6,7 +6,7 @@
 //! across the antimeridian or around a pole (input, rejoined) and its pieces cut at ±180
 //! (output) measure the same. geo's lon/lat area algorithms handle neither.
 
-use super::lonlat::{lonlat_to_unit, EARTH_RADIUS_M};
+use crate::earth::lonlat::{lonlat_to_unit, EARTH_RADIUS_M};
 
 /// Area of the region a ring of unit vectors bounds on the side of its mean direction, square
 /// metres. The ring may be given closed (last = first) or open; fewer than 3 points bound none.

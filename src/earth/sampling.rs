@@ -14,10 +14,10 @@
 //! The other modes report the largest midpoint deviation they measured (`max_deviation_rad`),
 //! a measurement rather than a bound.
 
-use super::lonlat::m_to_rad;
-use super::{EarthError, Problem};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::lonlat::m_to_rad;
 use crate::sphere::curve::even_parameters;
-use crate::sphere::SphericalCurve;
+use crate::sphere::curve::SphericalCurve;
 
 /// Automatic sampling keeps the polyline within this fraction of the fit's max error of the
 /// curve: 5 % is "far below" the error while costing about 1/sqrt(0.05) = 4.5x fewer points

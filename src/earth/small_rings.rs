@@ -20,10 +20,10 @@
 
 use serde_json::{json, Map, Value};
 
-use super::curve::{parse_positions, CurveOutput, CurveReport, LinePositions};
-use super::json_out::JsonOut;
-use super::lonlat::{rad_to_m, round_to, unit_to_lonlat};
-use super::EarthError;
+use crate::earth::curve::{parse_positions, CurveOutput, CurveReport, LinePositions};
+use crate::earth::error::EarthError;
+use crate::earth::json_out::JsonOut;
+use crate::earth::lonlat::{rad_to_m, round_to, unit_to_lonlat};
 use crate::sphere::geometry::arc::distance_to_arc;
 
 /// Samples per triangle edge when the triangle's distance to the input outline is measured.

@@ -23,8 +23,8 @@
 //! `u = (t - t_0) / (t_n - t_0)` on `[0, 1]`; `properties.fit.time` stores `start` and `end`
 //! (and the convention), so the spline can be evaluated at a time.
 
-use super::{EarthError, Problem};
-use crate::sphere::SphericalBSpline;
+use crate::earth::error::{EarthError, Problem};
+use crate::sphere::curve::bspline::SphericalBSpline;
 use serde_json::{json, Map, Value};
 
 /// Property names searched, in order, when no `time_property` is given.

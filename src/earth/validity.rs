@@ -20,7 +20,7 @@ use std::sync::OnceLock;
 use geo::{coord, Intersects, Line};
 use rayon::prelude::*;
 
-use super::lonlat::{round_to, unit_to_lonlat};
+use crate::earth::lonlat::{round_to, unit_to_lonlat};
 use crate::sphere::geometry::crossing::{
     meeting_segments_boxed, polylines_meet_boxed, RunBoxes, SegmentTest, GREAT_CIRCLE,
 };

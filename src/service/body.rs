@@ -3,8 +3,8 @@
 //! rejected request still sends (so that clients that write the whole body before reading the
 //! answer, such as Python's urllib, see the error instead of a reset connection).
 
-use super::error::ApiError;
-use super::AppState;
+use crate::service::error::ApiError;
+use crate::service::AppState;
 use axum::body::{Body, Bytes};
 use axum::http::{header, HeaderMap, StatusCode};
 use http_body_util::BodyExt;

@@ -25,7 +25,7 @@
 //! | 500 | `internal` | a bug (logged; the detail says nothing more) |
 
 use crate::document::InputError;
-use crate::earth::{EarthError, Problem};
+use crate::earth::error::{EarthError, Problem};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde_json::json;

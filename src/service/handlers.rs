@@ -4,17 +4,21 @@
 //! ([`super::request::Accepted::run`]), checking every output size before the work that would
 //! make it.
 
-use super::error::ApiError;
-use super::query::{self, fit_options, GeoEndpoint, Params};
-use super::request::PostRequest;
-use super::{AppState, ServiceConfig, OPENAPI_YAML};
-use crate::document::{curve_from_json, InterpolationDocument};
+use crate::document::beta::{curve_from_json, InterpolationDocument};
 use crate::document::{pointer, tolerance_document, FitDocument, PointsInput, SamplesDocument};
-use crate::earth::{Document, FeatureStats, Job, Topology};
+use crate::earth::features::{Document, FeatureStats};
+use crate::earth::job::{Job, Topology};
+use crate::service::error::ApiError;
+use crate::service::query;
+use crate::service::query::{fit_options, GeoEndpoint, Params};
+use crate::service::request::PostRequest;
+use crate::service::{AppState, ServiceConfig, OPENAPI_YAML};
 use crate::sphere::cancel::Cancel;
 use crate::sphere::compress::tolerance::{fit_to_tolerance, ToleranceOptions};
+use crate::sphere::curve::SphericalCurve;
 use crate::sphere::interpolate;
-use crate::sphere::{InputSite, InterpolationOptions, SphereError, SphericalCurve};
+use crate::sphere::interpolate::beta::InterpolationOptions;
+use crate::sphere::{InputSite, SphereError};
 use axum::extract::State;
 use axum::http::{header, HeaderValue, StatusCode, Uri};
 use axum::response::{IntoResponse, Response};

@@ -40,7 +40,7 @@ mod request;
 
 pub(crate) use error::ApiError;
 
-use crate::earth::Limits;
+use crate::earth::job::Limits;
 use axum::error_handling::HandleErrorLayer;
 use axum::extract::{DefaultBodyLimit, MatchedPath, Request, State};
 use axum::http::{header, HeaderValue, StatusCode};

@@ -6,7 +6,7 @@
 //! `POST /v1/fit` like any other client; the only thing it adds to the API is `/v1/limits`, so
 //! that a client can refuse a file that is too large before sending it.
 
-use super::AppState;
+use crate::service::AppState;
 use axum::extract::{Path, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};

@@ -3,9 +3,11 @@
 //! parameter. The GeoJSON endpoints only fill a [`RawOptions`]: whether values are in range and
 //! go together is [`crate::earth::into_job`]'s business (a 422 naming the option).
 
-use super::error::ApiError;
-use crate::earth::{into_job, Job, Limits, OperationKind, RawOptions};
-use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
+use crate::earth::into_job;
+use crate::earth::job::{Job, Limits, OperationKind, RawOptions};
+use crate::service::error::ApiError;
+use crate::sphere::fit::gls_pia::{FitOptions, Solver};
+use crate::sphere::fit::knots::{KnotPlacement, Parameterization};
 use std::collections::BTreeMap;
 use std::str::FromStr;
 

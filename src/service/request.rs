@@ -4,9 +4,9 @@
 //! ([`super::body`]), and [`Accepted::run`] does the CPU work on the blocking pool holding a
 //! fitting slot, within the request's time budget.
 
-use super::body::{read_body, reject, HeldBody};
-use super::error::ApiError;
-use super::{AppState, ServiceConfig};
+use crate::service::body::{read_body, reject, HeldBody};
+use crate::service::error::ApiError;
+use crate::service::{AppState, ServiceConfig};
 use crate::sphere::cancel::Cancel;
 use axum::body::Body;
 use axum::extract::rejection::QueryRejection;

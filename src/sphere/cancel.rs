@@ -27,7 +27,7 @@
 //! assert!(!Cancel::inherit().is_cancelled());
 //! ```
 
-use super::SphereError;
+use crate::sphere::SphereError;
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;

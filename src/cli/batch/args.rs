@@ -1,7 +1,17 @@
 //! The flags of `spherefit fit | interpolate | evaluate` and the [`Job`] they make: each
 //! command only fills a [`RawOptions`]; [`into_job`] checks it, as it does the service's query.
 
-use super::*;
+use crate::cli::batch::input::Format;
+use crate::cli::batch::topology;
+use crate::cli::Failure;
+use crate::earth::into_job;
+use crate::earth::job::{
+    InterpolateSettings, Job, Limits, OperationKind, ParameterizationOption, RawOptions,
+};
+use crate::sphere::fit::gls_pia::{FitOptions, Solver};
+use crate::sphere::fit::knots::KnotPlacement;
+use clap::Args;
+use std::path::PathBuf;
 
 pub(super) const AFTER_HELP: &str = "\
 Input:

@@ -17,10 +17,10 @@
 //!   window: the reader's next wait fails and it stops reading, and queued workers skip their
 //!   work.
 
-use super::input::{Body, Format, Input, Opened, Position, ReadError, Unit, RS};
-use crate::earth::{
-    process_feature, Document, EarthError, FeatureStats, Job, Problem, ProcessedFeature,
-};
+use crate::cli::batch::input::{Body, Format, Input, Opened, Position, ReadError, Unit, RS};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::features::{process_feature, Document, FeatureStats, ProcessedFeature};
+use crate::earth::job::Job;
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
 use std::io::{self, Write};

@@ -1,6 +1,9 @@
 //! Progress on a terminal: features done, points per second and the ETA, on one line.
 
-use super::*;
+use crate::cli::batch::pipeline::{Progress, Totals};
+use std::io;
+use std::io::Write;
+use std::time::Instant;
 
 /// Progress on a terminal: one line, rewritten in place.
 pub(super) struct TerminalProgress {

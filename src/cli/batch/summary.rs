@@ -1,6 +1,7 @@
 //! The end-of-run summary, as text and JSON (`--stats`).
 
-use super::*;
+use crate::cli::batch::pipeline::Totals;
+use serde_json::json;
 
 /// The end-of-run summary, as text and JSON.
 pub(super) struct Summary<'a> {

@@ -1,4 +1,12 @@
 use super::*;
+use crate::cli::batch::pipeline::Totals;
+use crate::cli::batch::progress::clock;
+use crate::cli::batch::progress::progress_line;
+use crate::earth::into_job;
+use crate::earth::job::Limits;
+use crate::earth::job::OperationKind;
+use crate::earth::job::ParameterizationOption;
+use crate::earth::job::RawOptions;
 use crate::earth::FeatureStats;
 use crate::earth::{Operation, Sampling, TimeSource};
 use crate::sphere::{KnotPlacement, Parameterization, Solver};

@@ -1,11 +1,14 @@
 //! `spherefit fit --topology shared`: the input read whole and fitted as one polygon coverage
 //! ([`crate::earth::topology`]), written as GeoJSON or (`--output-format topojson`) TopoJSON.
 
-use super::input::Format;
-use super::{stderr_line, BatchArgs};
+use crate::cli::batch::args::BatchArgs;
+use crate::cli::batch::input::Format;
+use crate::cli::batch::stderr_line;
 use crate::cli::Failure;
-use crate::earth::topology::{fit_coverage, OutputFormat, Phases, Topology};
-use crate::earth::{Document, Job};
+use crate::earth::features::Document;
+use crate::earth::job::Job;
+use crate::earth::job::{OutputFormat, Topology};
+use crate::earth::topology::{fit_coverage, Phases};
 use clap::{Args, ValueEnum};
 use std::io::{self, Read, Write};
 use std::time::Instant;

@@ -25,7 +25,7 @@ pub mod split;
 
 pub use split::{split_polygon, split_polygon_around};
 
-use super::lonlat::unit_to_lonlat;
+use crate::earth::lonlat::unit_to_lonlat;
 use crate::sphere::geometry::point::angle_between;
 
 /// A position `[lon_deg, lat_deg, altitude]` (the altitude is meaningless when the data have

@@ -25,7 +25,7 @@
 //! vertex of the curve is snapped or dropped as collinear (a planar clip drops vertices along a
 //! parallel, which on the sphere are not collinear at all).
 
-use super::Position;
+use crate::earth::antimeridian::Position;
 use crate::earth::lonlat::lonlat_to_unit;
 use crate::sphere::geometry::point::angle_between;
 

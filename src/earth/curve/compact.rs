@@ -33,10 +33,11 @@
 //! base64 is the `base64` crate's standard engine (padded, canonical: a last character with
 //! bits past the last byte is refused), its errors given with the character's offset.
 
-use super::*;
 use crate::sphere::compress::coding::{put_unsigned, unzigzag, zigzag};
+use crate::sphere::curve::bspline::SphericalBSpline;
 use base64::engine::general_purpose::STANDARD;
 use base64::{DecodeError, Engine as _};
+use serde_json::{json, Value};
 
 /// The version byte this build writes and reads.
 pub const COMPACT_VERSION: u8 = 1;
@@ -276,7 +277,11 @@ fn base64_decode(text: &str) -> Result<Vec<u8>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::earth::curve::stored::curve_from_lonlat_json;
+    use crate::earth::lonlat::lonlat_to_unit;
     use crate::sphere::curve::bspline::clamped_uniform_knots;
+    use crate::sphere::curve::AnyCurve;
+    use crate::sphere::geometry::point::PointSet;
     use proptest::prelude::*;
 
     fn spline(degree: usize, knots: Vec<f64>, ll: &[[f64; 2]]) -> SphericalBSpline {

@@ -2,7 +2,35 @@
 //! ([`fit_line`]) or to a tolerance in metres ([`fit_line_to_tolerance`]), rounded to the
 //! output precision and measured as returned.
 
-use super::*;
+use crate::earth::curve::compact::encode_compact;
+use crate::earth::curve::line::{ErrorSums, LineRef, OutputSpec};
+use crate::earth::curve::output::{
+    auto_tolerance_rad, compression_ratio, finish_dense, round_up_m, sample_curve, sampling_start,
+    CurveOutput, CurveReport, KeptPolyline,
+};
+use crate::earth::curve::positions::{
+    fits_closed, median_step_rad, prepare_line, round_m, sphere_error, DistinctPositions,
+    LinePositions,
+};
+use crate::earth::curve::times::{DenseTimes, LineTimeInput, Timed};
+use crate::earth::curve::tolerance_rule::ToleranceRule;
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::json_out::JsonOut;
+use crate::earth::lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, round_to, unit_to_lonlat};
+use crate::earth::sampling::AUTO_DEVIATION_FRACTION;
+use crate::sphere::certify::two_way::{polyline_length, two_way_distance, TwoWayOptions};
+use crate::sphere::compress::tolerance::{
+    fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions,
+};
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::adaptive_knots::{refine, turning_angles};
+use crate::sphere::fit::gls_pia::{default_control_points, FitOptions};
+use crate::sphere::fit::knots::KnotPlacement;
+use crate::sphere::fit::metrics::pointwise_errors;
+use crate::sphere::geometry::densify::densify;
+use crate::sphere::geometry::point::{angle_between, PointSet};
+use crate::sphere::{fit, SphereError};
+use serde_json::{json, Map, Value};
 
 /// Without `control_points`, a fit at a quarter of the distinct positions is refitted at half
 /// of them when its max error exceeds this share of the median step between positions. On the

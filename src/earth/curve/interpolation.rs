@@ -1,6 +1,20 @@
 //! Interpolating one line with a spherical Beta-spline ([`interpolate_line`]).
 
-use super::*;
+use crate::document::beta::BetaDocument;
+use crate::earth::curve::line::{ErrorSums, LineRef, OutputSpec};
+use crate::earth::curve::output::{
+    finish_dense, ring_sampling, sampling_start, CurveOutput, CurveReport,
+};
+use crate::earth::curve::positions::{prepare_line, round_m, sphere_error};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::job::InterpolateSettings;
+use crate::earth::lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, round_to, unit_to_lonlat};
+use crate::earth::sampling::{sample, AUTO_DEVIATION_FLOOR_M};
+use crate::sphere::curve::beta::SphericalBetaSpline;
+use crate::sphere::geometry::point::angle_between;
+use crate::sphere::interpolate::beta::{interpolate, InterpolationOptions};
+use crate::sphere::SphereError;
+use serde_json::{json, Map, Value};
 
 /// Automatic sampling of an interpolating curve keeps the polyline within this share of the
 /// mean vertex spacing of the curve (and at least `AUTO_DEVIATION_FLOOR_M`): the curve has no

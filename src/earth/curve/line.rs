@@ -2,7 +2,10 @@
 //! how its output is made and bounded ([`OutputSpec`]), and the errors of its positions
 //! summed for the report ([`ErrorSums`]).
 
-use super::*;
+use crate::earth::curve::output::CurveReport;
+use crate::earth::job::{Limits, OutputOptions};
+use crate::earth::lonlat::rad_to_m;
+use serde_json::{Map, Value};
 
 /// One line or ring of a geometry, or a stored curve document, and where it sits.
 #[derive(Clone, Copy, Debug)]

@@ -9,29 +9,6 @@
 //! a count or to a tolerance), `interpolation` (Beta-splines), `stored` (lon/lat curve
 //! documents read back and evaluated) and `output` (reports, dense lines, positions written).
 
-use super::lonlat::{lonlat_to_unit, m_to_rad, rad_to_m, round_to, unit_to_lonlat, LonLat};
-use super::sampling::{
-    sample, DenseCurve, Sampling, AUTO_DEVIATION_FLOOR_M, AUTO_DEVIATION_FRACTION,
-};
-use super::sampling::{sample_at, time_parameters};
-use super::time::{check_times, times_from_array, LineTimes, TimeFormat, TimeMap, TimeOrigin};
-use super::{EarthError, InterpolateSettings, JsonOut, Limits, OutputOptions, Problem};
-use crate::document::BetaDocument;
-use crate::sphere::certify::two_way::{polyline_length, two_way_distance, TwoWayOptions};
-use crate::sphere::compress::tolerance::{
-    fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions, MAX_LENGTH_RATIO,
-};
-use crate::sphere::fit::adaptive_knots::{refine, turning_angles};
-use crate::sphere::fit::default_control_points;
-use crate::sphere::fit::knots::KnotPlacement;
-use crate::sphere::fit::metrics::pointwise_errors;
-use crate::sphere::geometry::densify::densify;
-use crate::sphere::geometry::point::{angle_between, ANTIPODAL_MARGIN_RAD};
-use crate::sphere::interpolate::beta::{interpolate, InterpolationOptions, SphericalBetaSpline};
-use crate::sphere::AnyCurve;
-use crate::sphere::{fit, FitOptions, InputSite, PointSet, SphereError, SphericalBSpline};
-use serde_json::{json, Map, Value};
-
 mod compact;
 mod fitting;
 mod interpolation;
@@ -58,6 +35,18 @@ pub use tolerance_rule::*;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::earth::error::EarthError;
+    use crate::earth::error::Problem;
+    use crate::earth::job::Limits;
+    use crate::earth::job::OutputOptions;
+    use crate::earth::lonlat::rad_to_m;
+    use crate::earth::lonlat::unit_to_lonlat;
+    use crate::sphere::curve::AnyCurve;
+    use crate::sphere::fit::gls_pia::FitOptions;
+    use crate::sphere::geometry::point::angle_between;
+    use crate::sphere::geometry::point::PointSet;
+    use serde_json::json;
+    use serde_json::Value;
 
     fn coords(n: usize, f: impl Fn(f64) -> (f64, f64)) -> Value {
         json!((0..n)

@@ -1,7 +1,20 @@
 //! What a curve gives back: its report ([`CurveReport`]), the dense line and its times
 //! ([`CurveOutput`]), and positions as written.
 
-use super::*;
+use crate::earth::curve::line::OutputSpec;
+use crate::earth::curve::positions::ALTITUDE_DECIMALS;
+use crate::earth::curve::times::DenseTimes;
+use crate::earth::error::EarthError;
+use crate::earth::json_out::JsonOut;
+use crate::earth::lonlat::{lonlat_to_unit, m_to_rad, round_to};
+use crate::earth::sampling::{
+    sample, sample_at, time_parameters, DenseCurve, Sampling, AUTO_DEVIATION_FLOOR_M,
+    AUTO_DEVIATION_FRACTION,
+};
+use crate::earth::time::TimeMap;
+use crate::sphere::geometry::point::PointSet;
+use crate::sphere::SphereError;
+use serde_json::{json, Map, Value};
 
 /// Everything reported about one fitted, interpolated or evaluated curve.
 #[derive(Clone, Debug, PartialEq)]

@@ -2,7 +2,12 @@
 //! repeats dropped ([`DistinctPositions`]), and math-core errors on them mapped back to the
 //! input position ([`sphere_error`]).
 
-use super::*;
+use crate::earth::curve::times::{timed_line, LineTimeInput, Timed};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::lonlat::{round_to, LonLat};
+use crate::sphere::geometry::point::{angle_between, PointSet, ANTIPODAL_MARGIN_RAD};
+use crate::sphere::{InputSite, SphereError};
+use serde_json::Value;
 
 /// Consecutive positions closer than this (radians; 0.6 mm on the Earth) are repeats: far below
 /// the 1.1 cm resolution of 7-decimal coordinates, far above rounding noise.

@@ -1,12 +1,22 @@
 //! A line fitted to a tolerance as a polyline, refitted tighter around some of its segments
 //! only ([`refit_line_around`]): the rest of it kept vertex for vertex.
 
-use super::fitting::{
+use crate::earth::curve::fitting::{
     finish_tolerance_fit, reported_two_way, Prepared, ReportedTwoWay, ToleranceCurve,
 };
-use super::*;
+use crate::earth::curve::fitting::{round_spline_rows, REPORT_TWO_WAY_PRECISION};
+use crate::earth::curve::line::{LineRef, OutputSpec};
+use crate::earth::curve::output::CurveOutput;
+use crate::earth::curve::positions::{fits_closed, prepare_line, sphere_error};
+use crate::earth::curve::tolerance_rule::ToleranceRule;
+use crate::earth::error::EarthError;
+use crate::sphere::compress::tolerance::{fit_to_tolerance, KnotRule, ToleranceOptions};
 use crate::sphere::curve::bspline::clamped_uniform_knots;
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::gls_pia::FitOptions;
 use crate::sphere::geometry::point::slerp;
+use crate::sphere::geometry::point::{angle_between, PointSet};
+use crate::sphere::SphereError;
 
 /// Line `src`, fitted as `old` (a polyline kept by the fit, [`CurveOutput::kept`]), refitted to
 /// `tolerance_m` only around its dense segments `at` (ascending: from point `i` to `i + 1`),
@@ -400,7 +410,17 @@ fn stretch_two_way(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::earth::curve::fitting::fit_line_to_tolerance;
+    use crate::earth::curve::output::KeptPolyline;
+    use crate::earth::job::Limits;
+    use crate::earth::job::OutputOptions;
+    use crate::earth::lonlat::lonlat_to_unit;
+    use crate::earth::lonlat::m_to_rad;
+    use crate::earth::lonlat::rad_to_m;
+    use crate::sphere::certify::two_way::two_way_distance;
+    use crate::sphere::certify::two_way::TwoWayOptions;
     use crate::sphere::geometry::arc::distance_to_arc;
+    use serde_json::Value;
 
     /// A jagged island about 300 km across, as a GeoJSON ring.
     fn island() -> Value {

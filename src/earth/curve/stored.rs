@@ -1,7 +1,21 @@
 //! Curves stored as lon/lat documents (`properties.fit`, `properties.interpolation`, a bare
 //! spline document): read back ([`curve_from_lonlat_json`]) and evaluated, densely or in time.
 
-use super::*;
+use crate::document::beta::BetaDocument;
+use crate::earth::curve::compact::decode_compact;
+use crate::earth::curve::fitting::bspline_stored_numbers;
+use crate::earth::curve::line::{ErrorSums, LineRef, OutputSpec};
+use crate::earth::curve::output::{
+    auto_tolerance_rad, finish_dense, sample_curve, sampling_start, CurveOutput, CurveReport,
+};
+use crate::earth::curve::positions::{parse_positions, round_m};
+use crate::earth::curve::times::DenseTimes;
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::lonlat::{m_to_rad, rad_to_m};
+use crate::earth::time::{TimeMap, TimeOrigin};
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::curve::AnyCurve;
+use serde_json::{json, Map, Value};
 
 /// Most control points a compact curve may declare. The decoder also refuses any count its
 /// bytes cannot hold, so what it allocates is bounded by the input's length either way.

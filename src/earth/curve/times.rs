@@ -1,7 +1,13 @@
 //! The times of a line fitted in time: read from the input, checked, and made into curve
 //! parameters and the time map.
 
-use super::*;
+use crate::earth::curve::positions::{DistinctPositions, LinePositions, REPEAT_ANGLE_RAD};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::time::{
+    check_times, times_from_array, LineTimes, TimeFormat, TimeMap, TimeOrigin,
+};
+use crate::sphere::geometry::point::angle_between;
+use serde_json::Value;
 
 /// Where one line's times are, for a fit in time.
 #[derive(Clone, Debug)]

@@ -1,7 +1,10 @@
 //! How a tolerance fit's curve is judged and retried, decided once for a line or ring fitted on
 //! its own ([`fit_line_to_tolerance`]) and for an arc of a coverage (`topology=shared`).
 
-use super::*;
+use crate::earth::curve::fitting::{polyline_target_rad, rounding_bound_rad, tolerance_target_rad};
+use crate::earth::curve::positions::round_m;
+use crate::earth::lonlat::{m_to_rad, rad_to_m};
+use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
 
 /// A tolerance in metres that a curve as returned (control points rounded to `precision`,
 /// rings closed) must meet: its max error at the positions and its two-way distance from the

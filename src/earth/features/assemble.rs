@@ -1,7 +1,20 @@
 //! The output of one feature: its geometry (cut at ±180), `properties.fit` (or
 //! `interpolation`, `evaluation`) and its counters, from the curves made.
 
-use super::*;
+use crate::earth::antimeridian::cut_line;
+use crate::earth::antimeridian::split::split_polygon_around;
+use crate::earth::curve::{
+    compression_ratio, lonlat_of_positions, output_position, output_positions, CurveOutput,
+    CurveReport, CONTROL_POINTS_OF_GEOMETRY,
+};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::features::{Assembled, FeatureStats};
+use crate::earth::job::{Job, Operation};
+use crate::earth::json_out::JsonOut;
+use crate::earth::small_rings;
+use crate::earth::time::TimeOrigin;
+
+use serde_json::{json, Map, Value};
 
 /// A geometry object of `kind` with these coordinates.
 pub(super) fn geometry(kind: &str, coordinates: JsonOut) -> JsonOut {

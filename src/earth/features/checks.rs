@@ -1,7 +1,11 @@
 //! Checks of what passes through unfitted (points, collections) and of `bbox` members, so the
 //! output is valid GeoJSON.
 
-use super::*;
+use crate::earth::curve::json_kind;
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::features::{array_at, invalid, CURVE_TYPES, OTHER_TYPES};
+
+use serde_json::{Map, Value};
 
 /// Checks a `bbox` member, if any: an array of 2n numbers, n >= 2 (RFC 7946 §5).
 pub(in crate::earth) fn check_bbox(map: &Map<String, Value>, ptr: &str) -> Result<(), EarthError> {

@@ -1,7 +1,21 @@
 //! The curves of a geometry (lines, rings, rings rejoined across ±180) fitted or interpolated,
 //! with the area they bound before and after.
 
-use super::*;
+use crate::earth::antimeridian::rejoin::rejoin_cut_polygons;
+use crate::earth::area;
+use crate::earth::curve::json_kind;
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::features::checks::check_other_geometry;
+use crate::earth::features::run::run_curves;
+use crate::earth::features::tighten::{ring_units, tighten_crossing_rings};
+use crate::earth::features::times::{feature_times, line_times, FeatureTimes};
+use crate::earth::features::{
+    assemble, check_bbox, invalid, CurveJob, Made, CURVE_TYPES, OTHER_TYPES,
+};
+use crate::earth::job::Job;
+use crate::earth::json_out::JsonOut;
+
+use serde_json::{json, Map, Value};
 
 pub(in crate::earth) fn array_at<'a>(
     v: &'a Value,

@@ -1,7 +1,18 @@
 //! Evaluation: the curves stored in `properties.fit` (or `interpolation`) read back and
 //! sampled, evaluated at times, or a bare lon/lat spline document sampled.
 
-use super::*;
+use crate::earth::curve::{curve_in_time, output_position, spline_of_geometry};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::features::run::run_curves;
+use crate::earth::features::{
+    array_at, assemble, invalid, Assembled, CurveJob, FeatureStats, Made, ProcessedFeature,
+    CURVE_TYPES,
+};
+use crate::earth::job::{Job, Operation};
+use crate::earth::json_out::JsonOut;
+use crate::earth::time::{motion, TimeOrigin};
+
+use serde_json::{json, Map, Value};
 
 /// Reads the curves stored in `properties.fit` (or `properties.interpolation`) for evaluation;
 /// `None` when the feature has none.

@@ -11,21 +11,12 @@
 //! made in parallel), `tighten` (rings that cross refitted), `assemble` (the output feature) and
 //! `evaluate` (stored fits read back).
 
-use super::antimeridian::rejoin::rejoin_cut_polygons;
-use super::antimeridian::{cut_line, split_polygon_around};
-use super::area;
-use super::curve::{
-    compression_ratio, evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line,
-    json_kind, output_position, output_positions,
-};
-use super::curve::{curve_in_time, CurveOutput, CurveReport, LineRef, LineTimeInput, OutputSpec};
-use super::curve::{lonlat_of_positions, spline_of_geometry, CONTROL_POINTS_OF_GEOMETRY};
-use super::lonlat::lonlat_to_unit;
-use super::small_rings;
-use super::time::{motion, TimeOrigin, TIME_PROPERTIES};
-use super::{Carry, EarthError, Job, JsonOut, Operation, Problem};
-use rayon::prelude::*;
-use serde_json::{json, Map, Value};
+use crate::earth::curve::json_kind;
+use crate::earth::curve::{LineRef, LineTimeInput};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::job::{Carry, Job, Operation};
+use crate::earth::json_out::JsonOut;
+use serde_json::{json, Value};
 use std::collections::BTreeMap;
 
 mod assemble;
@@ -39,18 +30,14 @@ mod tests;
 mod tighten;
 mod times;
 
-use assemble::*;
+use assemble::assemble;
 pub(super) use checks::check_bbox;
-use checks::*;
-use curves::*;
+use curves::curves_of_geometry;
 pub(super) use curves::{array_at, no_area_on_the_sphere};
-use document::*;
+use document::count_curves;
 pub use document::{parse_json, Document};
+use evaluate::curves_of_fit;
 pub use evaluate::evaluate_spline_document;
-use evaluate::*;
-use run::*;
-use tighten::*;
-use times::*;
 
 /// Geometry types that hold curves.
 const CURVE_TYPES: [&str; 4] = ["LineString", "MultiLineString", "Polygon", "MultiPolygon"];

@@ -1,6 +1,14 @@
 //! The curves of one geometry made in parallel, each by the job's operation; small rings kept.
 
-use super::*;
+use crate::earth::curve::{
+    evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line, CurveOutput, OutputSpec,
+};
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::features::CurveJob;
+use crate::earth::job::{Job, Operation};
+use crate::earth::small_rings;
+use rayon::prelude::{IntoParallelRefIterator, ParallelIterator};
+use serde_json::Value;
 
 /// Runs the curves of one geometry in parallel; the first error in order wins.
 pub(super) fn run_curves(jobs: &[CurveJob<'_>], job: &Job) -> Result<Vec<CurveOutput>, EarthError> {

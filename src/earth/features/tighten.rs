@@ -1,12 +1,20 @@
 //! Validity of fitted polygons: rings that meet themselves or their feature's other rings
 //! where the input's did not are refitted tighter ([`crate::earth::validity`]).
 
-use super::*;
 use crate::earth::curve::refit_line_around;
+use crate::earth::curve::{fit_line_to_tolerance, CurveOutput};
+use crate::earth::error::EarthError;
+use crate::earth::features::run::output_spec;
+use crate::earth::features::CurveJob;
+use crate::earth::job::{Job, Operation};
+use crate::earth::lonlat::lonlat_to_unit;
 use crate::earth::lonlat::m_to_rad;
+use crate::earth::small_rings;
 use crate::earth::validity::{splice_around, tighten, Drawn, LAST_RESORT_M, REFIT_ROUNDS};
 use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
-use crate::sphere::FitOptions;
+use crate::sphere::fit::gls_pia::FitOptions;
+
+use serde_json::{json, Value};
 
 /// Validity: the fitted rings of one feature (exterior rings, holes, the polygons of a
 /// MultiPolygon) must not meet themselves or each other where the input's rings did not, on

@@ -1,6 +1,8 @@
 //! Checks of one option's value: its range, and the limit that bounds it.
 
-use super::*;
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::job::Limits;
+use crate::sphere::fit::gls_pia::FitOptions;
 
 /// Checks fit options against their ranges and `limits`, before any data is read: the degree,
 /// the number of control points (degree + 1 to the limit), the iterations (up to the limit)

@@ -1,7 +1,20 @@
 //! [`into_job`]: the rules between options (what excludes or implies what), the defaults, and
 //! the [`Job`] they make.
 
-use super::*;
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::job::checks::invalid_option;
+use crate::earth::job::grid::topojson_grid_multiple;
+use crate::earth::job::raw::{
+    Carry, OperationKind, OutputFormat, ParameterizationOption, RawOptions, Topology,
+};
+use crate::earth::job::{
+    precision_for_tolerance, InterpolateSettings, Job, Limits, Operation, OutputOptions,
+    TimeOptions, DEFAULT_PRECISION,
+};
+use crate::earth::sampling::Sampling;
+use crate::earth::time::TimeSource;
+use crate::sphere::cancel::Cancel;
+use crate::sphere::fit::gls_pia::FitOptions;
 
 pub(super) fn conflict(option: &'static str, other: impl Into<String>, reason: &str) -> EarthError {
     EarthError::new(

@@ -7,12 +7,11 @@
 //! and the enumerations of its options), `into_job` (the rules between options, the defaults)
 //! and `checks` (one option's range and limit).
 
-use super::error::{EarthError, Problem};
-use super::sampling::Sampling;
-use super::time::TimeSource;
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::sampling::Sampling;
+use crate::earth::time::TimeSource;
 use crate::sphere::cancel::Cancel;
-use crate::sphere::{FitOptions, KnotPlacement, Parameterization, Solver};
-use std::str::FromStr;
+use crate::sphere::fit::gls_pia::FitOptions;
 
 mod checks;
 mod grid;
@@ -21,7 +20,7 @@ mod raw;
 #[cfg(test)]
 mod tests;
 
-use checks::{check_count, invalid_option};
+use checks::check_count;
 pub use checks::{check_degree, check_fit_options, check_target_max_error_rad, check_tolerance};
 pub use grid::{
     grid_neighbours, round_to_grid, topojson_grid_multiple, TOPOJSON_GRID_SHARE_OF_TOLERANCE,

@@ -2,8 +2,10 @@
 //! ([`RawOptions::set`], the service's query) or field by field (the command line, Python), and
 //! the enumerations its options name.
 
-use super::*;
+use crate::sphere::fit::gls_pia::Solver;
+use crate::sphere::fit::knots::{KnotPlacement, Parameterization};
 use crate::sphere::fit::options_check::{concat_names, SPLINE_OPTIONS};
+use std::str::FromStr;
 
 /// Parses `-?digits(.digits)?([eE][+-]?digits)?` (also `.5` and `5.`), a number as JSON
 /// writes it; anything else (`inf`, `NaN`, `+1`, spaces) is `None`.

@@ -1,4 +1,7 @@
 use super::*;
+use crate::sphere::fit::gls_pia::Solver;
+use crate::sphere::fit::knots::KnotPlacement;
+use crate::sphere::fit::knots::Parameterization;
 
 fn job(kind: OperationKind, pairs: &[(&str, &str)]) -> Result<Job, EarthError> {
     let mut raw = RawOptions::default();

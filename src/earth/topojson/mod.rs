@@ -28,9 +28,9 @@
 
 mod rings;
 
-use self::rings::{ArcIndex, Cell, Piece};
-use super::job::Carry;
-use super::topology::Coverage;
+use crate::earth::job::Carry;
+use crate::earth::topojson::rings::{ArcIndex, Cell, Piece};
+use crate::earth::topology::Coverage;
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 

@@ -1,10 +1,25 @@
 //! One arc of a coverage fitted to the tolerance with pinned ends, rounded, sampled and
 //! measured as returned.
 
-use super::*;
+use crate::earth::curve::{round_spline_with, sampling_start, sphere_error, ToleranceRule};
 use crate::earth::curve::{splice_windows, spliced_two_way, Splice, Spliced, WindowFit};
+use crate::earth::error::EarthError;
+use crate::earth::job::Job;
+use crate::earth::lonlat::unit_to_lonlat;
+use crate::earth::sampling::{sample, AUTO_DEVIATION_FRACTION};
+use crate::earth::small_rings;
+use crate::earth::topology::FittedArc;
+use crate::sphere::certify::two_way::{polyline_length, two_way_distance, TwoWayOptions};
 use crate::sphere::compress::tolerance::POLYLINE_FIRST_SHARE;
+use crate::sphere::compress::tolerance::{
+    fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions,
+};
+use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::adaptive_knots::{turning_angles, CORNER_ANGLE_RAD};
+use crate::sphere::fit::metrics::pointwise_errors;
+use crate::sphere::fit::seam::close_seam;
 use crate::sphere::geometry::point::log_map;
+use crate::sphere::geometry::point::PointSet;
 
 /// Fits one arc to the tolerance with pinned ends (see the module docs), rounds it, samples it
 /// and measures the curve as returned.

@@ -3,9 +3,19 @@
 //! input did not, on the sphere or as written, are refitted tighter, up to [`validity::REFIT_ROUNDS`]
 //! times ([`crate::earth::validity`]).
 
-use super::*;
+use crate::earth::curve::ToleranceRule;
+use crate::earth::error::{EarthError, Problem};
+use crate::earth::job::Job;
 use crate::earth::lonlat::m_to_rad;
+use crate::earth::small_rings;
+use crate::earth::topology::arcs::ArcGraph;
+use crate::earth::topology::fit_arc::{keep_arc, refit_around, tolerance_met_by};
+use crate::earth::topology::phases::Phases;
+use crate::earth::topology::read::RingSource;
+use crate::earth::topology::rebuild::ring_lonlat;
+use crate::earth::topology::{fit_arc, FittedArc};
 use crate::earth::validity::{self, Drawn, Tightened};
+use rayon::prelude::{IntoParallelRefIterator, ParallelIterator};
 
 /// The arcs of a coverage, fitted.
 pub(super) struct FittedArcs {

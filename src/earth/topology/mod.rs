@@ -39,26 +39,15 @@
 
 pub mod arcs;
 
-use super::antimeridian;
-use super::area;
-use super::curve::{
-    compression_ratio, prepare_line, round_spline_with, round_up_m, sampling_start, sphere_error,
-    ToleranceRule,
-};
-use super::features::{process_feature, Document, FeatureStats, Source};
-use super::lonlat::{rad_to_m, round_to, unit_to_lonlat};
-use super::sampling::{sample, AUTO_DEVIATION_FRACTION};
-use super::small_rings;
-use super::{EarthError, Job, Operation, Problem};
-use crate::sphere::certify::two_way::{polyline_length, two_way_distance, TwoWayOptions};
-use crate::sphere::compress::tolerance::{
-    fit_to_tolerance, stored_numbers, KnotRule, ToleranceOptions,
-};
-use crate::sphere::fit::adaptive_knots::{turning_angles, CORNER_ANGLE_RAD};
-use crate::sphere::fit::metrics::pointwise_errors;
-use crate::sphere::fit::seam::close_seam;
-use crate::sphere::{PointSet, SphericalBSpline};
-use arcs::{ArcGraph, ArcUse, InputRing};
+use crate::earth::curve::{round_up_m, ToleranceRule};
+use crate::earth::error::EarthError;
+use crate::earth::features::{Document, FeatureStats, Source};
+use crate::earth::job::{Job, Operation};
+use crate::earth::lonlat::{rad_to_m, round_to};
+use crate::earth::small_rings;
+use crate::sphere::compress::tolerance::KnotRule;
+use crate::sphere::curve::bspline::SphericalBSpline;
+use arcs::{ArcGraph, ArcUse};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
@@ -218,11 +207,11 @@ mod snap;
 #[cfg(test)]
 mod tests;
 
-use fit_arc::*;
-use fitting::*;
-use read::*;
-use rebuild::*;
-use report::*;
+use fit_arc::fit_arc;
+use fitting::{fit_arcs, FittedArcs};
+use read::read_coverage;
+use rebuild::{Rebuild, RebuiltFeature};
+use report::{dataset_report, Dataset, Totals};
 
 pub use phases::Phases;
 

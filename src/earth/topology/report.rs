@@ -1,6 +1,11 @@
 //! A coverage's dataset report (the GeoJSON collection's `topology` member).
 
-use super::*;
+use crate::earth::curve::{compression_ratio, round_up_m};
+use crate::earth::lonlat::{rad_to_m, round_to};
+use crate::earth::topology::arcs::ArcGraph;
+use crate::earth::topology::rebuild::RebuiltFeature;
+
+use serde_json::{json, Value};
 
 /// Sums and maxima over the rebuilt polygon features.
 pub(super) struct Totals {

@@ -10,8 +10,9 @@
 
 use crate::earth::job::grid_neighbours;
 use crate::earth::lonlat::{lonlat_to_unit, unit_to_lonlat};
+use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::geometry::arc::distance_to_arc;
-use crate::sphere::{PointSet, SphericalBSpline};
+use crate::sphere::geometry::point::PointSet;
 
 /// The degree-1 `fitted` spline with its interior vertices moved, left to right, to the grid
 /// corner (of `multiple` steps of `precision` decimals) around each that makes the larger of

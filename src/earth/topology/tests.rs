@@ -1,5 +1,6 @@
 use super::*;
 use crate::earth::lonlat::{lonlat_to_unit, m_to_rad};
+use crate::earth::topology::fit_arc::refit_around;
 use crate::sphere::geometry::arc::distance_to_arc;
 use crate::sphere::FitOptions;
 

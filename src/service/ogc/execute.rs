@@ -13,15 +13,17 @@
 //! description gives, or `{"value": …}`) and checked by [`into_job`], so a 422 names the same
 //! option, with a pointer into the execute request.
 
-use super::super::handlers::{geo_run, output_media_type, parse_json, respond, Progress, JSON};
-use super::super::query::{GeoEndpoint, Params};
-use super::super::request::PostRequest;
-use super::super::{ApiError, AppState, ServiceConfig};
-use super::jobs::status_info;
-use super::processes::process;
-use super::store::{is_job_id, JobStore, Refusal, Status};
-use super::{base_url, json_response};
-use crate::earth::{into_job, Job, OptionType, RawOptions};
+use crate::earth::into_job;
+use crate::earth::job::{Job, OptionType, RawOptions};
+use crate::service::error::ApiError;
+use crate::service::handlers::{geo_run, output_media_type, parse_json, respond, Progress, JSON};
+use crate::service::ogc::jobs::status_info;
+use crate::service::ogc::processes::process;
+use crate::service::ogc::store::{is_job_id, JobStore, Refusal, Status};
+use crate::service::ogc::{base_url, json_response};
+use crate::service::query::{GeoEndpoint, Params};
+use crate::service::request::PostRequest;
+use crate::service::{AppState, ServiceConfig};
 use crate::sphere::cancel::Cancel;
 use axum::extract::{Path, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};

@@ -9,12 +9,13 @@
 //! nothing). The parsed result of the
 //! last collection read is kept ([`CACHE`]) so that paging through it does not parse it again.
 
-use super::super::handlers::{parse_json, respond, GEO_JSON, JSON};
-use super::super::query::Params;
-use super::super::{ApiError, AppState};
-use super::jobs::{find, result_bytes};
-use super::store::{JobRecord, Status};
-use super::{base_url, json_response, link};
+use crate::service::error::ApiError;
+use crate::service::handlers::{parse_json, respond, GEO_JSON, JSON};
+use crate::service::ogc::jobs::{find, result_bytes};
+use crate::service::ogc::store::{JobRecord, Status};
+use crate::service::ogc::{base_url, json_response, link};
+use crate::service::query::Params;
+use crate::service::AppState;
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::Response;

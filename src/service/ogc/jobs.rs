@@ -3,10 +3,11 @@
 //! with its media type, as pygeoapi answers a single output: so that `{"href": …/results}` of a
 //! later execution and plain downloads read the same bytes).
 
-use super::super::handlers::{respond, GEO_JSON, JSON};
-use super::super::{ApiError, AppState};
-use super::store::{is_job_id, JobRecord, Status};
-use super::{base_url, json_response, link};
+use crate::service::error::ApiError;
+use crate::service::handlers::{respond, GEO_JSON, JSON};
+use crate::service::ogc::store::{is_job_id, JobRecord, Status};
+use crate::service::ogc::{base_url, json_response, link};
+use crate::service::AppState;
 use axum::extract::{Path, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::Response;

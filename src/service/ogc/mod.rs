@@ -23,8 +23,8 @@ mod store;
 
 pub(crate) use store::JobStore;
 
-use super::handlers::JSON;
-use super::AppState;
+use crate::service::handlers::JSON;
+use crate::service::AppState;
 use axum::extract::State;
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};

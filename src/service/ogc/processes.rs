@@ -4,11 +4,12 @@
 //! between options are not repeated in the schemas but checked by [`crate::earth::into_job`]
 //! when a process runs (a 422 naming the input).
 
-use super::super::handlers::{GEO_JSON, JSON};
-use super::super::query::GeoEndpoint;
-use super::super::{ApiError, AppState};
-use super::{base_url, json_response, link};
-use crate::earth::{OperationKind, OptionType, RawOptions};
+use crate::earth::job::{OperationKind, OptionType, RawOptions};
+use crate::service::error::ApiError;
+use crate::service::handlers::{GEO_JSON, JSON};
+use crate::service::ogc::{base_url, json_response, link};
+use crate::service::query::GeoEndpoint;
+use crate::service::AppState;
 use axum::extract::{Path, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::Response;

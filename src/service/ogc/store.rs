@@ -15,8 +15,8 @@
 //! [`JobStore::open`] reads the directory back: finished jobs (and their results) stay readable;
 //! jobs that were accepted or running are marked failed, since their work died with the process.
 
-use super::super::handlers::Progress;
-use super::super::ServiceConfig;
+use crate::service::handlers::Progress;
+use crate::service::ServiceConfig;
 use crate::sphere::cancel::Cancel;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;

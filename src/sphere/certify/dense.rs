@@ -10,7 +10,7 @@
 //! `arc_to_arc_sup` of the chord (or the Lipschitz bound of the distance,
 //! whichever is smaller). Proofs: `docs/certified-distance.md`.
 
-use super::bounds::{
+use crate::sphere::certify::bounds::{
     acceleration_deviation, arc_to_arc_known, ellipse_deviation, ROUNDING_SLACK_RAD,
 };
 use crate::sphere::curve::{even_parameters, SphericalCurve};

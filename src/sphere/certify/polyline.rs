@@ -14,8 +14,8 @@
 //! the general method (evaluations through the curve trait, speed bounds, sample vectors per
 //! segment) was a third of the fitting time of a coastline dataset.
 
-use super::bounds::arc_to_arc_known;
-use super::two_way::Piece;
+use crate::sphere::certify::bounds::arc_to_arc_known;
+use crate::sphere::certify::two_way::Piece;
 use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle, Dim, PointSet};
 

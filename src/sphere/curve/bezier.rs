@@ -9,8 +9,8 @@
 //! The kernel (`de_casteljau`) is generic over `Dim`, so the Beta-spline's S^2 path runs on
 //! `Fixed<3>` while S^14 uses the same code with a runtime length.
 
-use super::SphericalCurve;
 use crate::sphere::certify::bounds::bezier_speed_bound;
+use crate::sphere::curve::SphericalCurve;
 use crate::sphere::geometry::point::{log_into, normalize, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use rayon::prelude::*;

@@ -6,7 +6,7 @@
 //! coefficient vector through the de Boor triangle alongside the points gives D_i(t) with
 //! `C(t) = Σ D_i(t) P_i` exactly (to rounding), for any spread of the control points.
 
-use super::SphericalCurve;
+use crate::sphere::curve::SphericalCurve;
 use crate::sphere::geometry::point::{normalize, Arc, Dim, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use rayon::prelude::*;

@@ -37,10 +37,10 @@
 //! needs restarts on this nonlinear problem, while the banded solve removes the dependence on
 //! the conditioning for a cost below one pass.
 
-use super::damping::{Damping, Run};
-use super::gls_pia::{FitOptions, FitReport, Solver};
-use super::pass::PassMode;
 use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::damping::{Damping, Run};
+use crate::sphere::fit::gls_pia::{FitOptions, FitReport, Solver};
+use crate::sphere::fit::pass::PassMode;
 use crate::sphere::geometry::point::{normalize, Dynamic, PointSet};
 
 /// Damping attempts per iteration before the iteration declares it cannot improve further.

@@ -28,7 +28,7 @@
 //! candidates the default once compared and the ideas measured and dropped are in
 //! `docs/default-fit.md`.
 
-use super::knots::feature_function;
+use crate::sphere::fit::knots::feature_function;
 use crate::sphere::geometry::point::{dot, Dim, PointSet};
 
 /// Turning angle (between the incoming and the outgoing great-circle direction at a vertex) from

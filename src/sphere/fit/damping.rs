@@ -3,10 +3,10 @@
 //! ([`Damping`]). They differ in the system their pass builds and in how a solution moves the
 //! control points, not in how a step is damped or a run is recorded.
 
-use super::gls_pia::{FitOptions, FitReport, IterationError, Solver};
-use super::metrics::ErrorMetrics;
-use super::pass::{run_pass, PassMode, PassResult};
 use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::gls_pia::{FitOptions, FitReport, IterationError, Solver};
+use crate::sphere::fit::metrics::ErrorMetrics;
+use crate::sphere::fit::pass::{run_pass, PassMode, PassResult};
 use crate::sphere::geometry::point::PointSet;
 
 /// Tikhonov ridge relative to the largest diagonal of the normal matrix: keeps control points

@@ -14,10 +14,10 @@
 //! normal equations in tangent coordinates, quadratic convergence to the geodesic
 //! least-squares optimum for the given knots.
 
-use super::damping::{Damping, Run, Trial};
-use super::gls_pia::{FitOptions, FitReport, Solver};
-use super::pass::{run_pass, PassMode};
 use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::damping::{Damping, Run, Trial};
+use crate::sphere::fit::gls_pia::{FitOptions, FitReport, Solver};
+use crate::sphere::fit::pass::{run_pass, PassMode};
 use crate::sphere::geometry::point::{dot, exp_in_place, Dynamic, PointSet};
 
 /// Damping attempts per iteration before the solver declares it cannot improve further.

@@ -6,13 +6,13 @@
 //! out to the control points by their contribution coefficients, `Δ_i = μ_i Σ_j D_i(t_j) δ_j`,
 //! and moves every control point at once: `P_i ← (P_i + Δ_i) / |P_i + Δ_i|`.
 
-use super::knots::{
+use crate::sphere::curve::bspline::{check_degree, SphericalBSpline};
+use crate::sphere::fit::knots::{
     greville_control_points, normalize_parameters, parameters, place_knots, KnotPlacement,
     Parameterization,
 };
-use super::metrics::ErrorMetrics;
-use super::pass::{run_pass, PassMode};
-use crate::sphere::curve::bspline::{check_degree, SphericalBSpline};
+use crate::sphere::fit::metrics::ErrorMetrics;
+use crate::sphere::fit::pass::{run_pass, PassMode};
 use crate::sphere::geometry::point::{normalize, Dynamic, PointSet};
 use crate::sphere::SphereError;
 use serde::{Deserialize, Serialize};

@@ -3,8 +3,8 @@
 //! The error of point j is the angle between q_j and C(t_j) in radians: the *parametric*
 //! error. The distance from q_j to the nearest point of the curve is never larger.
 
-use super::pass::{run_pass, PassMode};
 use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::pass::{run_pass, PassMode};
 use crate::sphere::geometry::point::PointSet;
 use serde::{Deserialize, Serialize};
 

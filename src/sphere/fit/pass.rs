@@ -5,9 +5,9 @@
 //! each chunk accumulates only into the control points its spans touch, and chunk results are
 //! merged in order, so the result does not depend on the number of threads.
 
-use super::jacobian::{eval_with_jacobian, tangent_bases, JacobianScratch};
-use super::metrics::ErrorSums;
 use crate::sphere::curve::bspline::{with_degree, Degree, Frame, Scratch, SphericalBSpline};
+use crate::sphere::fit::jacobian::{eval_with_jacobian, tangent_bases, JacobianScratch};
+use crate::sphere::fit::metrics::ErrorSums;
 use crate::sphere::geometry::point::SERIES_ANGLE_MAX_RAD;
 use crate::sphere::geometry::point::{
     angle_from_chords, diff_sum_sq, dot, sinc_series, Dim, PointSet,

@@ -18,10 +18,12 @@
 //! GLS-PIA updates with [`close_seam`] (the projection onto the closed curves) so the control
 //! points near the seam settle with the constraint in force.
 
-use super::adaptive_knots::CORNER_ANGLE_RAD;
-use super::gls_pia::{fit, gls_pia_iteration_local, FitOptions, FitReport, IterationError};
-use super::metrics::{pointwise_errors, ErrorSums};
 use crate::sphere::curve::bspline::SphericalBSpline;
+use crate::sphere::fit::adaptive_knots::CORNER_ANGLE_RAD;
+use crate::sphere::fit::gls_pia::{
+    fit, gls_pia_iteration_local, FitOptions, FitReport, IterationError,
+};
+use crate::sphere::fit::metrics::{pointwise_errors, ErrorSums};
 use crate::sphere::geometry::point::{exp_map, log_map, normalize, Dynamic, PointSet};
 use crate::sphere::SphereError;
 

@@ -2,7 +2,7 @@
 //! the line: a border's sparse straight stretch (two vertices hundreds of kilometres apart) is
 //! otherwise free for the curve to bulge over, since nothing is measured between its vertices.
 
-use super::point::{angle_between, slerp, PointSet};
+use crate::sphere::geometry::point::{angle_between, slerp, PointSet};
 use crate::sphere::SphereError;
 
 /// The polyline through `points` with points inserted (on the great circle, evenly) into every

@@ -35,7 +35,7 @@
 //! Cost: about (curve length / D) · log(D / precision) curve evaluations, in parallel over the
 //! polyline's segments; for a polyline curve, a few arc-to-arc bounds per segment.
 
-use super::bounds::{
+use crate::sphere::certify::bounds::{
     acceleration_deviation, arc_to_arc_sup, ellipse_deviation, ROUNDING_SLACK_RAD,
 };
 use crate::sphere::curve::SphericalCurve;

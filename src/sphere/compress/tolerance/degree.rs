@@ -1,9 +1,9 @@
 //! One vertex target's curves of every degree: the degree probe, the seeded fits with knot
 //! insertion and removal, and the fewest control points on uniform knots.
 
-use super::fitter::{Fitter, Stale, REFIT_ITERATIONS};
-use super::pieces::polyline_in_pieces;
-use super::{stored_numbers, Curve, KnotRule, Line, ToleranceOptions};
+use crate::sphere::compress::tolerance::fitter::{Fitter, Stale, REFIT_ITERATIONS};
+use crate::sphere::compress::tolerance::pieces::polyline_in_pieces;
+use crate::sphere::compress::tolerance::{stored_numbers, Curve, KnotRule, Line, ToleranceOptions};
 use crate::sphere::curve::bspline::{clamped_uniform_knots, with_degree, Degree};
 use crate::sphere::fit::metrics::{measure, ErrorMetrics};
 use crate::sphere::geometry::point::{Dim, PointSet};

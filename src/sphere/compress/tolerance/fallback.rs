@@ -2,10 +2,10 @@
 //! and a hair under it, then every point, for when no fitted curve meets the tolerance (and as the yardstick a
 //! fitted curve must store fewer numbers than).
 
-use super::{Curve, KnotRule, Line};
 use crate::sphere::compress::simplify::{
     douglas_peucker, douglas_peucker_ordered, synchronized_douglas_peucker,
 };
+use crate::sphere::compress::tolerance::{Curve, KnotRule, Line};
 use crate::sphere::curve::bspline::{clamped_uniform_knots, SphericalBSpline};
 
 /// How many polyline fallbacks [`polyline_candidate`] knows.

@@ -124,12 +124,14 @@ mod stabbing;
 #[cfg(test)]
 mod tests;
 
-use self::degree::search;
-use self::fallback::{polyline_candidate, Yardstick, POLYLINE_CANDIDATES};
-use self::stabbing::stabbing_polyline;
 use crate::sphere::certify::two_way::{
     polyline_length, two_way_distance, TwoWayDistance, TwoWayOptions,
 };
+use crate::sphere::compress::tolerance::degree::search;
+use crate::sphere::compress::tolerance::fallback::{
+    polyline_candidate, Yardstick, POLYLINE_CANDIDATES,
+};
+use crate::sphere::compress::tolerance::stabbing::stabbing_polyline;
 use crate::sphere::curve::bspline::{SphericalBSpline, MAX_DEGREE};
 use crate::sphere::fit::knots::{normalize_parameters, parameters, Parameterization};
 use crate::sphere::fit::metrics::{measure, ErrorMetrics};

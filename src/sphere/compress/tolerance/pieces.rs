@@ -1,11 +1,11 @@
 //! A long line's degree-1 fit in pieces cut at sharp corners, fitted in parallel and joined.
 
-use super::fitter::Fitter;
-use super::{
-    decide_options, internal_target, Curve, KnotRule, Line, ToleranceOptions, VERTEX_SHARES,
-};
 use crate::sphere::certify::two_way::{two_way_distance, TwoWayDistance};
 use crate::sphere::compress::simplify::douglas_peucker_ordered;
+use crate::sphere::compress::tolerance::fitter::Fitter;
+use crate::sphere::compress::tolerance::{
+    decide_options, internal_target, Curve, KnotRule, Line, ToleranceOptions, VERTEX_SHARES,
+};
 use crate::sphere::curve::bspline::{clamped_uniform_knots, Degree, SphericalBSpline};
 use crate::sphere::fit::adaptive_knots::turning_angles;
 use crate::sphere::fit::knots::parameters;

@@ -25,7 +25,7 @@
 //! Gnomonic distances are never shorter than the angles they stand for (the projection
 //! stretches in every direction), so every test below is on the safe side.
 
-use super::{Curve, KnotRule};
+use crate::sphere::compress::tolerance::{Curve, KnotRule};
 use crate::sphere::curve::bspline::{clamped_uniform_knots, SphericalBSpline};
 use crate::sphere::geometry::point::{angle, dot, Fixed, PointSet};
 

@@ -1,6 +1,6 @@
 //! Foot-point correction: each point's parameter moved towards the curve point nearest it.
 
-use super::Fitter;
+use crate::sphere::compress::tolerance::fitter::Fitter;
 use crate::sphere::curve::bspline::Degree;
 use crate::sphere::geometry::arc::ArcFrame;
 use crate::sphere::geometry::point::{angle_from_sine, dot, Dim};

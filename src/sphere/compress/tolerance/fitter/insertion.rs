@@ -1,6 +1,6 @@
 //! Knot insertion where points are out of tolerance, with refits until the target is met.
 
-use super::{Fitter, Stale, REFIT_ITERATIONS};
+use crate::sphere::compress::tolerance::fitter::{Fitter, Stale, REFIT_ITERATIONS};
 use crate::sphere::curve::bspline::Degree;
 use crate::sphere::geometry::point::{slerp, Dim, PointSet};
 

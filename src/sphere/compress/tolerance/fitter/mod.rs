@@ -11,8 +11,8 @@ mod removal;
 
 pub(super) use refit::Stale;
 
-use super::{Curve, KnotRule, Line, ToleranceOptions};
 use crate::sphere::compress::simplify::{douglas_peucker, douglas_peucker_ordered};
+use crate::sphere::compress::tolerance::{Curve, KnotRule, Line, ToleranceOptions};
 use crate::sphere::curve::bspline::{
     clamped_uniform_knots, Degree, Frame, Scratch, SphericalBSpline,
 };

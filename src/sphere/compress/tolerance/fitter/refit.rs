@@ -1,6 +1,6 @@
 //! Gauss–Newton refits (Levenberg–Marquardt damped) of a window of control points.
 
-use super::{Fitter, RefitBuffers};
+use crate::sphere::compress::tolerance::fitter::{Fitter, RefitBuffers};
 use crate::sphere::curve::bspline::Degree;
 use crate::sphere::fit::pass::log_residual;
 use crate::sphere::geometry::point::{dot, exp_in_place, Dim};

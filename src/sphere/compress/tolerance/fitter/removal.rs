@@ -1,7 +1,7 @@
 //! Greedy knot removal with local refits and Lawson reweighting.
 
-use super::refit::Stale;
-use super::Fitter;
+use crate::sphere::compress::tolerance::fitter::refit::Stale;
+use crate::sphere::compress::tolerance::fitter::Fitter;
 use crate::sphere::curve::bspline::Degree;
 use crate::sphere::geometry::arc::{distance_key, distance_to_arc, ArcFrame};
 use crate::sphere::geometry::point::Dim;
