@@ -7,8 +7,8 @@ use crate::document::{tolerance_document, FitDocument, PointsInput, SamplesDocum
 use crate::sphere::compress::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::curve::SphericalCurve;
 use crate::sphere::fit;
-use crate::sphere::fit::gls_pia::{FitOptions, Solver, StepRule};
 use crate::sphere::fit::knots::{KnotPlacement, Parameterization};
+use crate::sphere::fit::options::{FitOptions, Solver, StepRule};
 use crate::sphere::fit::options_check::{check_given_together, check_tolerance_fit};
 use crate::sphere::interpolate::beta::{BetaSolver, InterpolationOptions};
 use crate::sphere::{interpolate, InputSite, SphereError};

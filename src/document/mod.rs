@@ -8,7 +8,7 @@ pub mod beta;
 pub use beta::{beta_from_json, curve_from_json, BetaDocument, InterpolationDocument};
 
 use crate::sphere::curve::bspline::SphericalBSpline;
-use crate::sphere::fit::gls_pia::{FitReport, IterationError};
+use crate::sphere::fit::options::{FitReport, IterationError};
 use crate::sphere::geometry::point::PointSet;
 use crate::sphere::{InputSite, SphereError};
 use serde::{Deserialize, Serialize};

@@ -20,7 +20,8 @@
 
 use serde_json::{json, Map, Value};
 
-use crate::earth::curve::{parse_positions, CurveOutput, CurveReport, LinePositions};
+use crate::earth::curve::output::{CurveOutput, CurveReport};
+use crate::earth::curve::positions::{parse_positions, LinePositions};
 use crate::earth::error::EarthError;
 use crate::earth::json_out::JsonOut;
 use crate::earth::lonlat::{rad_to_m, round_to, unit_to_lonlat};

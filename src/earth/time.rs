@@ -138,7 +138,7 @@ pub fn read_time(v: &Value) -> Result<(f64, TimeFormat), String> {
         Value::String(s) => parse_rfc3339(s).map(|t| (t, TimeFormat::Rfc3339)),
         other => Err(format!(
             "a time is an RFC 3339 string or a number of unix seconds, got {}",
-            super::curve::json_kind(other)
+            super::curve::positions::json_kind(other)
         )),
     }
 }
@@ -217,7 +217,7 @@ pub fn times_from_array(
             pointer.to_string(),
             format!(
                 "expected an array with one time per position, got {}",
-                super::curve::json_kind(v)
+                super::curve::positions::json_kind(v)
             ),
         )
     })?;

@@ -6,8 +6,8 @@
 use crate::earth::into_job;
 use crate::earth::job::{Job, Limits, OperationKind, RawOptions};
 use crate::service::error::ApiError;
-use crate::sphere::fit::gls_pia::{FitOptions, Solver};
 use crate::sphere::fit::knots::{KnotPlacement, Parameterization};
+use crate::sphere::fit::options::{FitOptions, Solver};
 use std::collections::BTreeMap;
 use std::str::FromStr;
 

@@ -8,8 +8,8 @@ use crate::earth::into_job;
 use crate::earth::job::{
     InterpolateSettings, Job, Limits, OperationKind, ParameterizationOption, RawOptions,
 };
-use crate::sphere::fit::gls_pia::{FitOptions, Solver};
 use crate::sphere::fit::knots::KnotPlacement;
+use crate::sphere::fit::options::{FitOptions, Solver};
 use clap::Args;
 use std::path::PathBuf;
 

@@ -24,9 +24,9 @@ use crate::sphere::compress::tolerance::{
 };
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::fit::adaptive_knots::{refine, turning_angles};
-use crate::sphere::fit::gls_pia::{default_control_points, FitOptions};
 use crate::sphere::fit::knots::KnotPlacement;
 use crate::sphere::fit::metrics::pointwise_errors;
+use crate::sphere::fit::options::{default_control_points, FitOptions};
 use crate::sphere::geometry::densify::densify;
 use crate::sphere::geometry::point::{angle_between, PointSet};
 use crate::sphere::{fit, SphereError};
@@ -206,7 +206,7 @@ pub fn fit_line(
         }
         if r_quick {
             let opts = options.clone().with_degree(degree);
-            r = crate::sphere::fit::gls_pia::resume_accelerated(r, &fit_points, &opts)
+            r = crate::sphere::fit::solve::resume_accelerated(r, &fit_points, &opts)
                 .map_err(fit_err)?;
         }
     } else if options.control_points.is_none() {

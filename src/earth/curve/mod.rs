@@ -4,37 +4,31 @@
 //! Pointers in errors are relative to the document: `pointer` is where the line's coordinates
 //! array sits (`/features/3/geometry/coordinates`), and a position error adds `/17` or `/17/1`.
 //!
-//! The files, each re-exported here: `positions` (parsing, checks, repeats, errors mapped back
+//! The files (this index re-exports nothing: each caller names the file it uses): `positions` (parsing, checks, repeats, errors mapped back
 //! to the input position), `times` (a line's times as parameters), `fitting` (B-spline fits at
 //! a count or to a tolerance), `interpolation` (Beta-splines), `stored` (lon/lat curve
 //! documents read back and evaluated) and `output` (reports, dense lines, positions written).
 
-mod compact;
-mod fitting;
-mod interpolation;
-mod line;
-mod output;
-mod positions;
-mod splice;
-mod stored;
-mod times;
-mod tolerance_rule;
-
-pub use compact::{decode_compact, encode_compact, COMPACT_VERSION};
-pub use fitting::*;
-pub use interpolation::*;
-pub use line::*;
-pub use output::*;
-pub use positions::*;
-pub use splice::refit_line_around;
-pub(crate) use splice::{splice_windows, spliced_two_way, Splice, Spliced, WindowFit};
-pub use stored::*;
-pub use times::*;
-pub use tolerance_rule::*;
+pub mod compact;
+pub mod fitting;
+pub mod interpolation;
+pub mod line;
+pub mod output;
+pub mod positions;
+pub mod splice;
+pub mod stored;
+pub mod times;
+pub mod tolerance_rule;
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use crate::earth::curve::fitting::fit_line;
+    use crate::earth::curve::line::LineRef;
+    use crate::earth::curve::line::OutputSpec;
+    use crate::earth::curve::output::CurveOutput;
+    use crate::earth::curve::positions::parse_positions;
+    use crate::earth::curve::positions::DistinctPositions;
+    use crate::earth::curve::stored::curve_from_lonlat_json;
     use crate::earth::error::EarthError;
     use crate::earth::error::Problem;
     use crate::earth::job::Limits;
@@ -42,7 +36,7 @@ mod tests {
     use crate::earth::lonlat::rad_to_m;
     use crate::earth::lonlat::unit_to_lonlat;
     use crate::sphere::curve::AnyCurve;
-    use crate::sphere::fit::gls_pia::FitOptions;
+    use crate::sphere::fit::options::FitOptions;
     use crate::sphere::geometry::point::angle_between;
     use crate::sphere::geometry::point::PointSet;
     use serde_json::json;

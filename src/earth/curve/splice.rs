@@ -13,7 +13,7 @@ use crate::earth::error::EarthError;
 use crate::sphere::compress::tolerance::{fit_to_tolerance, KnotRule, ToleranceOptions};
 use crate::sphere::curve::bspline::clamped_uniform_knots;
 use crate::sphere::curve::bspline::SphericalBSpline;
-use crate::sphere::fit::gls_pia::FitOptions;
+use crate::sphere::fit::options::FitOptions;
 use crate::sphere::geometry::point::slerp;
 use crate::sphere::geometry::point::{angle_between, PointSet};
 use crate::sphere::SphereError;

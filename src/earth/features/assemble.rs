@@ -3,10 +3,10 @@
 
 use crate::earth::antimeridian::cut_line;
 use crate::earth::antimeridian::split::split_polygon_around;
-use crate::earth::curve::{
-    compression_ratio, lonlat_of_positions, output_position, output_positions, CurveOutput,
-    CurveReport, CONTROL_POINTS_OF_GEOMETRY,
+use crate::earth::curve::output::{
+    compression_ratio, output_position, output_positions, CurveOutput, CurveReport,
 };
+use crate::earth::curve::stored::{lonlat_of_positions, CONTROL_POINTS_OF_GEOMETRY};
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::{Assembled, FeatureStats};
 use crate::earth::job::{Job, Operation};

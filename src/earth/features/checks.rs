@@ -1,7 +1,7 @@
 //! Checks of what passes through unfitted (points, collections) and of `bbox` members, so the
 //! output is valid GeoJSON.
 
-use crate::earth::curve::json_kind;
+use crate::earth::curve::positions::json_kind;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::{array_at, invalid, CURVE_TYPES, OTHER_TYPES};
 
@@ -120,8 +120,11 @@ pub(super) fn check_position(p: &Value, ptr: &str) -> Result<(), EarthError> {
             ));
         }
     }
-    crate::earth::curve::parse_positions(&Value::Array(vec![Value::Array(nums[..2].to_vec())]), "")
-        .map_err(|e| EarthError::new(format!("{ptr}{}", &e.pointer[2..]), e.problem))?;
+    crate::earth::curve::positions::parse_positions(
+        &Value::Array(vec![Value::Array(nums[..2].to_vec())]),
+        "",
+    )
+    .map_err(|e| EarthError::new(format!("{ptr}{}", &e.pointer[2..]), e.problem))?;
     Ok(())
 }
 

@@ -3,7 +3,7 @@
 
 use crate::earth::antimeridian::rejoin::rejoin_cut_polygons;
 use crate::earth::area;
-use crate::earth::curve::json_kind;
+use crate::earth::curve::positions::json_kind;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::checks::check_other_geometry;
 use crate::earth::features::run::run_curves;

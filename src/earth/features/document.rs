@@ -1,7 +1,7 @@
 //! A GeoJSON document split into independent slots ([`Document`]), and the curves and
 //! positions of its slots counted without validating them (for limits checked before the work).
 
-use crate::earth::curve::json_kind;
+use crate::earth::curve::positions::json_kind;
 use crate::earth::error::EarthError;
 use crate::earth::features::{check_bbox, invalid, FeatureSlot, Source, CURVE_TYPES, OTHER_TYPES};
 use crate::earth::json_out::JsonOut;

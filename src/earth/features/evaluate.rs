@@ -1,7 +1,8 @@
 //! Evaluation: the curves stored in `properties.fit` (or `interpolation`) read back and
 //! sampled, evaluated at times, or a bare lon/lat spline document sampled.
 
-use crate::earth::curve::{curve_in_time, output_position, spline_of_geometry};
+use crate::earth::curve::output::output_position;
+use crate::earth::curve::stored::{curve_in_time, spline_of_geometry};
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::run::run_curves;
 use crate::earth::features::{

@@ -11,8 +11,9 @@
 //! made in parallel), `tighten` (rings that cross refitted), `assemble` (the output feature) and
 //! `evaluate` (stored fits read back).
 
-use crate::earth::curve::json_kind;
-use crate::earth::curve::{LineRef, LineTimeInput};
+use crate::earth::curve::line::LineRef;
+use crate::earth::curve::positions::json_kind;
+use crate::earth::curve::times::LineTimeInput;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::job::{Carry, Job, Operation};
 use crate::earth::json_out::JsonOut;
@@ -312,7 +313,7 @@ fn drop_splines(info: &mut JsonOut) {
             number(m, "two_way_distance_m"),
             number(m, "sampling_deviation_m"),
         ) {
-            let written = super::curve::round_up_m(tw + dev);
+            let written = super::curve::output::round_up_m(tw + dev);
             m.insert("two_way_distance_m".into(), JsonOut::Value(json!(written)));
             if number(m, "tolerance_m").is_some_and(|t| written > t) {
                 m.insert("tolerance_met".into(), JsonOut::Value(json!(false)));

@@ -1,8 +1,10 @@
 //! The curves of one geometry made in parallel, each by the job's operation; small rings kept.
 
-use crate::earth::curve::{
-    evaluate_curve, fit_line, fit_line_to_tolerance, interpolate_line, CurveOutput, OutputSpec,
-};
+use crate::earth::curve::fitting::{fit_line, fit_line_to_tolerance};
+use crate::earth::curve::interpolation::interpolate_line;
+use crate::earth::curve::line::OutputSpec;
+use crate::earth::curve::output::CurveOutput;
+use crate::earth::curve::stored::evaluate_curve;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::CurveJob;
 use crate::earth::job::{Job, Operation};

@@ -1,5 +1,5 @@
 use super::*;
-use crate::earth::curve::CONTROL_POINTS_OF_GEOMETRY;
+use crate::earth::curve::stored::CONTROL_POINTS_OF_GEOMETRY;
 use crate::sphere::FitOptions;
 
 fn wave(n: usize, lon0: f64) -> Value {

@@ -1,8 +1,9 @@
 //! Validity of fitted polygons: rings that meet themselves or their feature's other rings
 //! where the input's did not are refitted tighter ([`crate::earth::validity`]).
 
-use crate::earth::curve::refit_line_around;
-use crate::earth::curve::{fit_line_to_tolerance, CurveOutput};
+use crate::earth::curve::fitting::fit_line_to_tolerance;
+use crate::earth::curve::output::CurveOutput;
+use crate::earth::curve::splice::refit_line_around;
 use crate::earth::error::EarthError;
 use crate::earth::features::run::output_spec;
 use crate::earth::features::CurveJob;
@@ -12,7 +13,7 @@ use crate::earth::lonlat::m_to_rad;
 use crate::earth::small_rings;
 use crate::earth::validity::{splice_around, tighten, Drawn, LAST_RESORT_M, REFIT_ROUNDS};
 use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
-use crate::sphere::fit::gls_pia::FitOptions;
+use crate::sphere::fit::options::FitOptions;
 
 use serde_json::{json, Value};
 

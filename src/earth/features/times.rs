@@ -1,7 +1,7 @@
 //! Where a feature's times are, for a fit in time: a property or the 4th coordinate, one array
 //! per line of a MultiLineString.
 
-use crate::earth::curve::LineTimeInput;
+use crate::earth::curve::times::LineTimeInput;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::job::Job;
 use crate::earth::time::TIME_PROPERTIES;

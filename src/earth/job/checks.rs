@@ -2,7 +2,7 @@
 
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::job::Limits;
-use crate::sphere::fit::gls_pia::FitOptions;
+use crate::sphere::fit::options::FitOptions;
 
 /// Checks fit options against their ranges and `limits`, before any data is read: the degree,
 /// the number of control points (degree + 1 to the limit), the iterations (up to the limit)

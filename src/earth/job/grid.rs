@@ -31,7 +31,7 @@ const MAX_GRID_MULTIPLE: u32 = 9;
 /// longitude of ±180 or a latitude of ±90 is on it). At least 1.
 pub fn topojson_grid_multiple(tolerance_m: f64, precision: u32) -> u32 {
     let allowed = TOPOJSON_GRID_SHARE_OF_TOLERANCE * crate::earth::lonlat::m_to_rad(tolerance_m);
-    let decimal = crate::earth::curve::rounding_bound_rad(precision);
+    let decimal = crate::earth::curve::fitting::rounding_bound_rad(precision);
     let steps_in_90 =
         |m: u32| precision >= 1 && (90 * 10u64.pow(precision.min(15))) % u64::from(m) == 0;
     (1..=MAX_GRID_MULTIPLE)

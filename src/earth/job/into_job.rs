@@ -14,7 +14,7 @@ use crate::earth::job::{
 use crate::earth::sampling::Sampling;
 use crate::earth::time::TimeSource;
 use crate::sphere::cancel::Cancel;
-use crate::sphere::fit::gls_pia::FitOptions;
+use crate::sphere::fit::options::FitOptions;
 
 pub(super) fn conflict(option: &'static str, other: impl Into<String>, reason: &str) -> EarthError {
     EarthError::new(

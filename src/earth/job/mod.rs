@@ -11,7 +11,7 @@ use crate::earth::error::{EarthError, Problem};
 use crate::earth::sampling::Sampling;
 use crate::earth::time::TimeSource;
 use crate::sphere::cancel::Cancel;
-use crate::sphere::fit::gls_pia::FitOptions;
+use crate::sphere::fit::options::FitOptions;
 
 mod checks;
 mod grid;
@@ -56,7 +56,7 @@ pub fn precision_for_tolerance(tolerance_m: f64) -> u32 {
         return DEFAULT_PRECISION;
     }
     (0..DEFAULT_PRECISION)
-        .find(|&p| crate::earth::curve::rounding_bound_rad(p) <= allowed)
+        .find(|&p| crate::earth::curve::fitting::rounding_bound_rad(p) <= allowed)
         .unwrap_or(DEFAULT_PRECISION)
 }
 
@@ -164,7 +164,7 @@ impl OutputOptions {
     /// How far rounding to the output grid moves a position at most, radians.
     pub fn rounding_bound_rad(&self) -> f64 {
         f64::from(self.grid_multiple.max(1))
-            * crate::earth::curve::rounding_bound_rad(self.precision)
+            * crate::earth::curve::fitting::rounding_bound_rad(self.precision)
     }
 }
 

@@ -2,8 +2,8 @@
 //! ([`RawOptions::set`], the service's query) or field by field (the command line, Python), and
 //! the enumerations its options name.
 
-use crate::sphere::fit::gls_pia::Solver;
 use crate::sphere::fit::knots::{KnotPlacement, Parameterization};
+use crate::sphere::fit::options::Solver;
 use crate::sphere::fit::options_check::{concat_names, SPLINE_OPTIONS};
 use std::str::FromStr;
 

@@ -1,7 +1,7 @@
 use super::*;
-use crate::sphere::fit::gls_pia::Solver;
 use crate::sphere::fit::knots::KnotPlacement;
 use crate::sphere::fit::knots::Parameterization;
+use crate::sphere::fit::options::Solver;
 
 fn job(kind: OperationKind, pairs: &[(&str, &str)]) -> Result<Job, EarthError> {
     let mut raw = RawOptions::default();
@@ -376,11 +376,12 @@ fn a_tolerance_sizes_the_precision_unless_it_is_given() {
     assert_eq!(precision_for_tolerance(f64::NAN), DEFAULT_PRECISION);
     for t in [0.5, 3.0, 10.0, 100.0, 1000.0, 5e4] {
         let p = precision_for_tolerance(t);
-        let bound_m = crate::earth::rad_to_m(crate::earth::curve::rounding_bound_rad(p));
+        let bound_m = crate::earth::rad_to_m(crate::earth::curve::fitting::rounding_bound_rad(p));
         assert!(bound_m <= PRECISION_SHARE_OF_TOLERANCE * t, "{t} m: {p}");
         if p > 0 {
             // One decimal fewer would take more than the share.
-            let coarser = crate::earth::rad_to_m(crate::earth::curve::rounding_bound_rad(p - 1));
+            let coarser =
+                crate::earth::rad_to_m(crate::earth::curve::fitting::rounding_bound_rad(p - 1));
             assert!(coarser > PRECISION_SHARE_OF_TOLERANCE * t, "{t} m: {p}");
         }
     }

@@ -1,8 +1,11 @@
 //! One arc of a coverage fitted to the tolerance with pinned ends, rounded, sampled and
 //! measured as returned.
 
-use crate::earth::curve::{round_spline_with, sampling_start, sphere_error, ToleranceRule};
-use crate::earth::curve::{splice_windows, spliced_two_way, Splice, Spliced, WindowFit};
+use crate::earth::curve::fitting::round_spline_with;
+use crate::earth::curve::output::sampling_start;
+use crate::earth::curve::positions::sphere_error;
+use crate::earth::curve::splice::{splice_windows, spliced_two_way, Splice, Spliced, WindowFit};
+use crate::earth::curve::tolerance_rule::ToleranceRule;
 use crate::earth::error::EarthError;
 use crate::earth::job::Job;
 use crate::earth::lonlat::unit_to_lonlat;
@@ -483,8 +486,11 @@ impl<'a> ArcLine<'a> {
         fit: &crate::sphere::ToleranceFit,
         rounded: &SphericalBSpline,
     ) -> Option<Measured> {
-        let tw =
-            crate::earth::curve::moved_polyline_bound(fit, rounded, 0.01 * self.tolerance.tol_rad)?;
+        let tw = crate::earth::curve::fitting::moved_polyline_bound(
+            fit,
+            rounded,
+            0.01 * self.tolerance.tol_rad,
+        )?;
         Some(self.measured_with(rounded, &fit.parameters, tw.upper_rad, tw.curve_length_rad))
     }
 

@@ -3,7 +3,7 @@
 //! input did not, on the sphere or as written, are refitted tighter, up to [`validity::REFIT_ROUNDS`]
 //! times ([`crate::earth::validity`]).
 
-use crate::earth::curve::ToleranceRule;
+use crate::earth::curve::tolerance_rule::ToleranceRule;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::job::Job;
 use crate::earth::lonlat::m_to_rad;

@@ -39,7 +39,8 @@
 
 pub mod arcs;
 
-use crate::earth::curve::{round_up_m, ToleranceRule};
+use crate::earth::curve::output::round_up_m;
+use crate::earth::curve::tolerance_rule::ToleranceRule;
 use crate::earth::error::EarthError;
 use crate::earth::features::{Document, FeatureStats, Source};
 use crate::earth::job::{Job, Operation};

@@ -3,7 +3,7 @@
 //! came cut at ±180) are read in order, each with where it came from.
 
 use crate::earth::antimeridian;
-use crate::earth::curve::prepare_line;
+use crate::earth::curve::positions::prepare_line;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::{array_at, check_bbox, invalid, FeatureSlot};
 use crate::earth::features::{process_feature, Document, FeatureStats, Source};
@@ -191,7 +191,7 @@ fn read_slot(fi: usize, slot: &FeatureSlot, job: &Job) -> Result<SlotRead, Earth
             let line = match prepare_line(ring, &rptr, true, None) {
                 Ok((line, _, _)) => line,
                 Err(e) if matches!(e.problem, Problem::TooFewPoints { .. }) => {
-                    crate::earth::curve::parse_positions(ring, &rptr)?
+                    crate::earth::curve::positions::parse_positions(ring, &rptr)?
                 }
                 Err(e) => return Err(e),
             };

@@ -2,7 +2,7 @@
 //! arcs' coordinates in ring order, cut at ±180 where it crosses, small rings kept or dropped) with
 //! its `properties.fit`.
 
-use crate::earth::curve::{compression_ratio, round_up_m};
+use crate::earth::curve::output::{compression_ratio, round_up_m};
 use crate::earth::job::{Job, OutputFormat};
 use crate::earth::lonlat::{rad_to_m, round_to};
 use crate::earth::topology::arcs::{ArcGraph, ArcUse};

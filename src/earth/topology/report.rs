@@ -1,6 +1,6 @@
 //! A coverage's dataset report (the GeoJSON collection's `topology` member).
 
-use crate::earth::curve::{compression_ratio, round_up_m};
+use crate::earth::curve::output::{compression_ratio, round_up_m};
 use crate::earth::lonlat::{rad_to_m, round_to};
 use crate::earth::topology::arcs::ArcGraph;
 use crate::earth::topology::rebuild::RebuiltFeature;

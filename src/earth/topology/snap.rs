@@ -163,7 +163,7 @@ mod tests {
                 .into_iter()
                 .fold(0.0, f64::max)
         };
-        let (rounded, _) = crate::earth::curve::round_spline_with(&fitted, &|x| {
+        let (rounded, _) = crate::earth::curve::fitting::round_spline_with(&fitted, &|x| {
             crate::earth::job::round_to_grid(x, 3, 4)
         })
         .unwrap();

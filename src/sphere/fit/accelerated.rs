@@ -39,7 +39,7 @@
 
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::fit::damping::{Damping, Run};
-use crate::sphere::fit::gls_pia::{FitOptions, FitReport, Solver};
+use crate::sphere::fit::options::{FitOptions, FitReport, Solver};
 use crate::sphere::fit::pass::PassMode;
 use crate::sphere::geometry::point::{normalize, Dynamic, PointSet};
 

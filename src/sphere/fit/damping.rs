@@ -4,8 +4,8 @@
 //! control points, not in how a step is damped or a run is recorded.
 
 use crate::sphere::curve::bspline::SphericalBSpline;
-use crate::sphere::fit::gls_pia::{FitOptions, FitReport, IterationError, Solver};
 use crate::sphere::fit::metrics::ErrorMetrics;
+use crate::sphere::fit::options::{FitOptions, FitReport, IterationError, Solver};
 use crate::sphere::fit::pass::{run_pass, PassMode, PassResult};
 use crate::sphere::geometry::point::PointSet;
 

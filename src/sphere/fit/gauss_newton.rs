@@ -16,7 +16,7 @@
 
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::fit::damping::{Damping, Run, Trial};
-use crate::sphere::fit::gls_pia::{FitOptions, FitReport, Solver};
+use crate::sphere::fit::options::{FitOptions, FitReport, Solver};
 use crate::sphere::fit::pass::{run_pass, PassMode};
 use crate::sphere::geometry::point::{dot, exp_in_place, Dynamic, PointSet};
 

@@ -20,10 +20,10 @@
 
 use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::fit::adaptive_knots::CORNER_ANGLE_RAD;
-use crate::sphere::fit::gls_pia::{
-    fit, gls_pia_iteration_local, FitOptions, FitReport, IterationError,
-};
+use crate::sphere::fit::gls_pia::gls_pia_iteration_local;
 use crate::sphere::fit::metrics::{pointwise_errors, ErrorSums};
+use crate::sphere::fit::options::{FitOptions, FitReport, IterationError};
+use crate::sphere::fit::solve::fit;
 use crate::sphere::geometry::point::{exp_map, log_map, normalize, Dynamic, PointSet};
 use crate::sphere::SphereError;
 
