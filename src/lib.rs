@@ -16,8 +16,8 @@
 //! * [`earth`]: S^2 as the Earth: lon/lat, metres, the antimeridian, GeoJSON in and out, and
 //!   tracks in time ([`earth::time`]: times read and checked, position as a function of time,
 //!   speed and heading).
-//!   polygon coverages fitted with shared borders ([`earth::topology`]: arcs and junctions,
-//!   each arc fitted once; [`earth::topojson`]: TopoJSON output).
+//!   polygon coverages fitted with shared borders ([`earth::coverage`]: arcs and junctions,
+//!   each arc fitted once; [`earth::coverage::topojson`]: TopoJSON output).
 //! * [`service`]: the HTTP service (axum): `/v1/fit`, `/v1/interpolate`, `/v1/evaluate` and the
 //!   S^n documents under `/v1/sphere/`.
 //! * [`cli`]: the command line.

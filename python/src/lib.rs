@@ -17,7 +17,7 @@ use spherefit::document::tolerance_document;
 use spherefit::document::{
     curve_from_json, pointer_for, FitDocument, InterpolationDocument, SamplesDocument,
 };
-use spherefit::earth::topology::fit_coverage;
+use spherefit::earth::coverage::fit_coverage;
 use spherefit::earth::{
     into_job, process_feature, process_geometry, Document, EarthError, Job, Limits, OperationKind,
     Problem, RawOptions, Topology,

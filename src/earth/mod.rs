@@ -4,8 +4,10 @@
 //! service and the command line alike, so both give the same output for the same options.
 //!
 //! * [`lonlat`]: degrees <-> unit vectors, radians <-> metres (mean radius 6,371,008.8 m).
-//! * [`antimeridian`]: lon/lat output cut at ±180 degrees (RFC 7946 §3.1.9), poles.
-//! * [`area`]: areas of polygons on the sphere (`area_m2`, `area_change` in reports).
+//! * [`polygon`]: what a ring needs to come back valid: [`polygon::antimeridian`] (output cut
+//!   at ±180 degrees, RFC 7946 §3.1.9, and the poles), [`polygon::validity`] (rings that meet,
+//!   judged and refitted), [`polygon::splice`] (a line refitted around a meeting only),
+//!   [`polygon::small_rings`] (rings that collapse) and [`polygon::area`] (areas on the sphere).
 //! * [`sampling`]: dense output of a curve (`samples`, `spacing_m`, or automatic).
 //! * [`curve`]: one line or ring: positions parsed and checked, repeats dropped, fitted.
 //! * [`job`]: the options of an operation, from what the user gave ([`RawOptions`]) to a
@@ -17,8 +19,9 @@
 //! * [`json_out`]: output JSON whose long number arrays are written straight from `f64`.
 //! * [`time`]: tracks in time: times read from the properties or the 4th coordinate and
 //!   checked, the map between times and the curve parameter, speed and heading.
-//! * [`topology`]: the polygons of a document as one coverage (`topology=shared`): arcs between
-//!   junctions, each fitted once, rings rebuilt from them; [`topojson`]: its TopoJSON output.
+//! * [`coverage`]: the polygons of a document as one coverage (`topology=shared`): arcs between
+//!   junctions, each fitted once, rings rebuilt from them; [`coverage::topojson`]: its TopoJSON
+//!   output.
 //!
 //! # What happens to a GeoJSON document
 //! * LineString and each part of a MultiLineString is fitted on its own; each Polygon and
@@ -63,20 +66,16 @@
 //! assert!(value["properties"]["fit"]["max_error_m"].as_f64().unwrap() < 5_000.0);
 //! ```
 
-pub mod antimeridian;
-pub mod area;
+pub mod coverage;
 pub mod curve;
 pub mod error;
 pub mod features;
 pub mod job;
 pub mod json_out;
 pub mod lonlat;
+pub mod polygon;
 pub mod sampling;
-pub mod small_rings;
 pub mod time;
-pub mod topojson;
-pub mod topology;
-pub mod validity;
 
 pub use error::{EarthError, Problem};
 pub use features::{

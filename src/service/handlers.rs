@@ -74,10 +74,10 @@ async fn geo(req: PostRequest, endpoint: GeoEndpoint) -> Result<Response, ApiErr
 }
 
 /// The media type of a GeoJSON operation's output in `format`.
-pub(super) fn output_media_type(format: crate::earth::topology::OutputFormat) -> &'static str {
+pub(super) fn output_media_type(format: crate::earth::coverage::OutputFormat) -> &'static str {
     match format {
-        crate::earth::topology::OutputFormat::TopoJson => JSON,
-        crate::earth::topology::OutputFormat::GeoJson => GEO_JSON,
+        crate::earth::coverage::OutputFormat::TopoJson => JSON,
+        crate::earth::coverage::OutputFormat::GeoJson => GEO_JSON,
     }
 }
 
@@ -122,7 +122,7 @@ pub(crate) fn geo_run(
 }
 
 /// `topology=shared`: the whole document fitted as one coverage
-/// ([`crate::earth::topology::fit_coverage`]), written as GeoJSON or TopoJSON.
+/// ([`crate::earth::coverage::fit_coverage`]), written as GeoJSON or TopoJSON.
 fn coverage_work(
     value: Value,
     job: &Job,
@@ -130,7 +130,7 @@ fn coverage_work(
 ) -> Result<(Vec<u8>, usize, usize), ApiError> {
     let doc = Document::parse(value, false)?;
     check_positions(&doc, config)?;
-    let coverage = crate::earth::topology::fit_coverage(doc, job)?;
+    let coverage = crate::earth::coverage::fit_coverage(doc, job)?;
     let stats = coverage.stats;
     if stats.curves == 0 {
         return Err(ApiError::unprocessable(
@@ -146,10 +146,16 @@ fn coverage_work(
         ));
     }
     let bytes = match job.format {
-        crate::earth::topology::OutputFormat::TopoJson => crate::earth::topojson::to_bytes(
-            &crate::earth::topojson::to_topology(coverage, job.output.precision, job.carry),
-        ),
-        crate::earth::topology::OutputFormat::GeoJson => {
+        crate::earth::coverage::OutputFormat::TopoJson => {
+            crate::earth::coverage::topojson::to_bytes(
+                &crate::earth::coverage::topojson::to_topology(
+                    coverage,
+                    job.output.precision,
+                    job.carry,
+                ),
+            )
+        }
+        crate::earth::coverage::OutputFormat::GeoJson => {
             serde_json::to_vec(&coverage.into_feature_collection(job.carry))
                 .map_err(|_| ApiError::internal())?
         }

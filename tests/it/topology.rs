@@ -9,7 +9,7 @@ use crate::helpers::distance_to_arc as to_segment;
 use crate::helpers::{fixture_path, read_fixture_json, run_spherefit, EARTH_RADIUS_M};
 use geo::{Area, BooleanOps, Contains, Coord, LineString, MultiPolygon, Polygon, Validation};
 use serde_json::{json, Value};
-use spherefit::earth::topology::{fit_coverage, Coverage};
+use spherefit::earth::coverage::{fit_coverage, Coverage};
 use spherefit::earth::{Document, Job, Operation};
 use spherefit::sphere::FitOptions;
 use std::collections::{HashMap, HashSet};

@@ -1,14 +1,14 @@
 //! `spherefit fit --topology shared`: the input read whole and fitted as one polygon coverage
-//! ([`crate::earth::topology`]), written as GeoJSON or (`--output-format topojson`) TopoJSON.
+//! ([`crate::earth::coverage`]), written as GeoJSON or (`--output-format topojson`) TopoJSON.
 
 use crate::cli::batch::args::BatchArgs;
 use crate::cli::batch::input::Format;
 use crate::cli::batch::stderr_line;
 use crate::cli::Failure;
+use crate::earth::coverage::{fit_coverage, Phases};
 use crate::earth::features::Document;
 use crate::earth::job::Job;
 use crate::earth::job::{OutputFormat, Topology};
-use crate::earth::topology::{fit_coverage, Phases};
 use clap::{Args, ValueEnum};
 use std::io::{self, Read, Write};
 use std::time::Instant;
@@ -97,9 +97,12 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
     let report = coverage.report.clone();
     let text = match format {
         OutputFormat::TopoJson => {
-            let topology =
-                crate::earth::topojson::to_topology(coverage, job.output.precision, job.carry);
-            let bytes = crate::earth::topojson::to_bytes(&topology);
+            let topology = crate::earth::coverage::topojson::to_topology(
+                coverage,
+                job.output.precision,
+                job.carry,
+            );
+            let bytes = crate::earth::coverage::topojson::to_bytes(&topology);
             // Freed on the pool while the bytes are written.
             rayon::spawn(move || drop(topology));
             bytes

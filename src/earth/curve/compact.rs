@@ -29,7 +29,7 @@
 //! one byte), varints longer than 64 bits, an unknown version, decreasing knots (a bit sum past
 //! infinity's bits, where the negative numbers lie, included), latitudes
 //! beyond ±90° and longitudes beyond ±180°, and trailing bytes, each with the byte offset; the
-//! curve it makes is then checked as a JSON spline is ([`curve_from_lonlat_json`]). The
+//! curve it makes is then checked as a JSON spline is ([`curve_from_lonlat_json`](crate::earth::curve::stored::curve_from_lonlat_json)). The
 //! base64 is the `base64` crate's standard engine (padded, canonical: a last character with
 //! bits past the last byte is refused), its errors given with the character's offset.
 
@@ -91,7 +91,7 @@ pub fn encode_compact(
 }
 
 /// Decodes a compact curve (base64 text) into the lon/lat spline document it stands for,
-/// `{"degree", "knots", "control_points"}`, which [`curve_from_lonlat_json`] then checks.
+/// `{"degree", "knots", "control_points"}`, which [`curve_from_lonlat_json`](crate::earth::curve::stored::curve_from_lonlat_json) then checks.
 ///
 /// # Errors
 /// A message saying what is wrong and at which byte of the decoded stream (or which

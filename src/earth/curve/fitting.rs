@@ -345,22 +345,22 @@ pub fn fit_line(
 /// A line as read for a fit: its positions, the distinct ones (also as unit vectors) and, for a
 /// fit in time, its times.
 #[derive(Clone, Copy)]
-pub(super) struct Prepared<'a> {
-    pub(super) line: &'a LinePositions,
-    pub(super) distinct: &'a DistinctPositions,
-    pub(super) points: &'a PointSet,
-    pub(super) time: Option<&'a Timed>,
+pub(crate) struct Prepared<'a> {
+    pub(crate) line: &'a LinePositions,
+    pub(crate) distinct: &'a DistinctPositions,
+    pub(crate) points: &'a PointSet,
+    pub(crate) time: Option<&'a Timed>,
 }
 
 /// A fitted curve (control points already rounded) and what it was fitted to.
 pub(super) struct Fitted<'a> {
     input: Prepared<'a>,
     spline: SphericalBSpline,
-    control_ll: Vec<[f64; 2]>,
+    pub(crate) control_ll: Vec<[f64; 2]>,
     /// The control points as [`lonlat_to_unit`] made them of `control_ll`, before the spline's
     /// point set normalised them ([`round_spline_rows`]).
     control_rows: Vec<[f64; 3]>,
-    params: Vec<f64>,
+    pub(crate) params: Vec<f64>,
     iterations: usize,
     converged: bool,
     knots: Value,
@@ -649,23 +649,23 @@ pub fn fit_line_to_tolerance(
 
 /// A curve fitted to a tolerance as returned (rounded, a ring's seam closed), before it is
 /// sampled and reported.
-pub(super) struct ToleranceCurve {
-    pub(super) spline: SphericalBSpline,
-    pub(super) control_ll: Vec<[f64; 2]>,
-    pub(super) control_rows: Vec<[f64; 3]>,
+pub(crate) struct ToleranceCurve {
+    pub(crate) spline: SphericalBSpline,
+    pub(crate) control_ll: Vec<[f64; 2]>,
+    pub(crate) control_rows: Vec<[f64; 3]>,
     /// The parameters of the line's distinct positions on it.
-    pub(super) params: Vec<f64>,
-    pub(super) knot_rule: KnotRule,
-    pub(super) degree: usize,
+    pub(crate) params: Vec<f64>,
+    pub(crate) knot_rule: KnotRule,
+    pub(crate) degree: usize,
     /// Its two-way distance from the line, measured as returned.
-    pub(super) tw: ReportedTwoWay,
+    pub(crate) tw: ReportedTwoWay,
     /// The starting parameters asked for (reported).
-    pub(super) parameterization: crate::sphere::Parameterization,
+    pub(crate) parameterization: crate::sphere::Parameterization,
 }
 
 /// The two-way distance of a curve as returned from the line (`points` at `params`), to
 /// `precision`.
-pub(super) fn reported_two_way(
+pub(crate) fn reported_two_way(
     spline: &SphericalBSpline,
     points: &PointSet,
     params: &[f64],
@@ -690,7 +690,7 @@ pub(super) fn reported_two_way(
 /// Samples and reports a curve fitted to `rule`'s tolerance ([`finish_fit`] and the tolerance
 /// fields); also returns the larger of its max error and two-way distance. A polyline written
 /// as its vertices keeps its curve ([`CurveOutput::kept`]).
-pub(super) fn finish_tolerance_fit(
+pub(crate) fn finish_tolerance_fit(
     input: Prepared<'_>,
     c: ToleranceCurve,
     rule: &ToleranceRule,
@@ -863,7 +863,7 @@ pub(crate) fn moved_polyline_bound(
 pub const TIME_STRAY_SHARE: f64 = 4.0;
 
 /// Precision of the reported two-way distance, as a share of the tolerance.
-pub(super) const REPORT_TWO_WAY_PRECISION: f64 = 0.01;
+pub(crate) const REPORT_TWO_WAY_PRECISION: f64 = 0.01;
 
 /// Precision (a share of the tolerance) a curve's two-way distance is measured to again when
 /// the reported bound is over the tolerance, before the fit counts as a miss.
@@ -906,7 +906,7 @@ type RoundedSpline = (SphericalBSpline, Vec<[f64; 2]>, Vec<[f64; 3]>);
 /// A spline whose control points are rounded to `precision` decimals of a degree, those
 /// control points as `[lon, lat]`, and as [`lonlat_to_unit`] gave them (before the point set
 /// normalised them), for [`finish_fit`].
-pub(super) fn round_spline_rows(
+pub(crate) fn round_spline_rows(
     s: &SphericalBSpline,
     precision: u32,
 ) -> Result<RoundedSpline, SphereError> {

@@ -24,7 +24,7 @@ pub const INTERPOLATION_DEVIATION_FRACTION: f64 = 0.005;
 /// Interpolates every distinct position of one line (or ring) with a spherical Beta-spline.
 ///
 /// # Errors
-/// As [`fit_line`], plus [`Problem::Interpolation`] when the shape parameters cannot be met.
+/// As [`fit_line`](crate::earth::curve::fitting::fit_line), plus [`Problem::Interpolation`] when the shape parameters cannot be met.
 pub fn interpolate_line(
     src: LineRef<'_>,
     settings: &InterpolateSettings,

@@ -1,6 +1,6 @@
 //! What the curve functions take: the line (or stored curve) and where it sits ([`LineRef`]),
 //! how its output is made and bounded ([`OutputSpec`]), and the errors of its positions
-//! summed for the report ([`ErrorSums`]).
+//! summed for the report (`ErrorSums`).
 
 use crate::earth::curve::output::CurveReport;
 use crate::earth::job::{Limits, OutputOptions};

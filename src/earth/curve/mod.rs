@@ -15,7 +15,6 @@ pub mod interpolation;
 pub mod line;
 pub mod output;
 pub mod positions;
-pub mod splice;
 pub mod stored;
 pub mod times;
 pub mod tolerance_rule;

@@ -79,7 +79,7 @@ pub struct CurveOutput {
 }
 
 /// A polyline fitted to a tolerance (degree 1 on uniform knots, its dense points its
-/// vertices) and the parameters of its positions on it: what [`refit_line_around`] splices.
+/// vertices) and the parameters of its positions on it: what [`refit_line_around`](crate::earth::polygon::splice::refit_line_around) splices.
 ///
 /// Refitting a whole ring for one meeting stored a long coast's every stretch at the tighter
 /// tolerance (docs/speed.md, "eighth session").
@@ -89,17 +89,17 @@ pub struct KeptPolyline {
     /// made unit vectors ([`lonlat_to_unit`]) and normalised (as `round_spline_rows` made
     /// them), so they are not kept twice (the 10m countries per feature held about 10 MB more
     /// with them).
-    pub(super) control_ll: Vec<[f64; 2]>,
+    pub(crate) control_ll: Vec<[f64; 2]>,
     /// The parameters of the line's distinct positions on it.
-    pub(super) params: Vec<f64>,
+    pub(crate) params: Vec<f64>,
     /// An upper bound of its two-way distance from the line, radians.
-    pub(super) two_way_rad: f64,
+    pub(crate) two_way_rad: f64,
 }
 
 impl KeptPolyline {
     /// The vertices as unit vectors, as [`lonlat_to_unit`] makes them, and as the spline's
     /// control points (normalised).
-    pub(super) fn rows(&self) -> Result<(Vec<[f64; 3]>, PointSet), SphereError> {
+    pub(crate) fn rows(&self) -> Result<(Vec<[f64; 3]>, PointSet), SphereError> {
         let rows: Vec<[f64; 3]> = self
             .control_ll
             .iter()

@@ -1,6 +1,6 @@
 //! The positions of one line or ring: parsed and checked (numbers, ranges, rings closed),
 //! repeats dropped ([`DistinctPositions`]), and math-core errors on them mapped back to the
-//! input position ([`sphere_error`]).
+//! input position (`sphere_error`).
 
 use crate::earth::curve::times::{timed_line, LineTimeInput, Timed};
 use crate::earth::error::{EarthError, Problem};
@@ -216,7 +216,7 @@ impl DistinctPositions {
         self.points.is_empty()
     }
 
-    pub(super) fn point_set(&self) -> PointSet {
+    pub(crate) fn point_set(&self) -> PointSet {
         PointSet::try_from_rows(&self.points).expect("lon/lat positions are unit vectors")
     }
 
@@ -302,7 +302,7 @@ pub(super) fn is_closed_line(d: &DistinctPositions) -> bool {
 
 /// Whether a fit closes the curve: asked for (a ring) or a line that ends where it starts, and
 /// never in time (a track that comes back is not a loop).
-pub(super) fn fits_closed(closed: bool, d: &DistinctPositions, timed: Option<&Timed>) -> bool {
+pub(crate) fn fits_closed(closed: bool, d: &DistinctPositions, timed: Option<&Timed>) -> bool {
     timed.is_none() && (closed || is_closed_line(d))
 }
 

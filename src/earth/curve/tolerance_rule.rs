@@ -1,5 +1,5 @@
 //! How a tolerance fit's curve is judged and retried, decided once for a line or ring fitted on
-//! its own ([`fit_line_to_tolerance`]) and for an arc of a coverage (`topology=shared`).
+//! its own ([`fit_line_to_tolerance`](crate::earth::curve::fitting::fit_line_to_tolerance)) and for an arc of a coverage (`topology=shared`).
 
 use crate::earth::curve::fitting::{polyline_target_rad, rounding_bound_rad, tolerance_target_rad};
 use crate::earth::curve::positions::round_m;

@@ -1,8 +1,6 @@
 //! The output of one feature: its geometry (cut at ±180), `properties.fit` (or
 //! `interpolation`, `evaluation`) and its counters, from the curves made.
 
-use crate::earth::antimeridian::cut_line;
-use crate::earth::antimeridian::split::split_polygon_around;
 use crate::earth::curve::output::{
     compression_ratio, output_position, output_positions, CurveOutput, CurveReport,
 };
@@ -11,7 +9,9 @@ use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::{Assembled, FeatureStats};
 use crate::earth::job::{Job, Operation};
 use crate::earth::json_out::JsonOut;
-use crate::earth::small_rings;
+use crate::earth::polygon::antimeridian::cut_line;
+use crate::earth::polygon::antimeridian::split::split_polygon_around;
+use crate::earth::polygon::small_rings;
 use crate::earth::time::TimeOrigin;
 
 use serde_json::{json, Map, Value};
@@ -26,7 +26,7 @@ pub(super) fn geometry(kind: &str, coordinates: JsonOut) -> JsonOut {
 
 /// Builds the output geometry, the properties object and the stats from fitted curves.
 /// `poles[i]`: the pole polygon `i` is closed along if it goes round one (cut-form input,
-/// [`crate::earth::antimeridian::rejoin::RejoinedPolygon::pole`]); empty when none is known.
+/// [`crate::earth::polygon::antimeridian::rejoin::RejoinedPolygon::pole`]); empty when none is known.
 pub(super) fn assemble(
     kind: &str,
     mut outputs: Vec<CurveOutput>,

@@ -1,8 +1,6 @@
 //! The curves of a geometry (lines, rings, rings rejoined across ±180) fitted or interpolated,
 //! with the area they bound before and after.
 
-use crate::earth::antimeridian::rejoin::rejoin_cut_polygons;
-use crate::earth::area;
 use crate::earth::curve::positions::json_kind;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::checks::check_other_geometry;
@@ -14,6 +12,8 @@ use crate::earth::features::{
 };
 use crate::earth::job::Job;
 use crate::earth::json_out::JsonOut;
+use crate::earth::polygon::antimeridian::rejoin::rejoin_cut_polygons;
+use crate::earth::polygon::area;
 
 use serde_json::{json, Map, Value};
 

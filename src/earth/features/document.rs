@@ -24,7 +24,7 @@ impl Document {
     /// checked here; each slot is checked when processed.
     ///
     /// # Errors
-    /// [`Problem::InvalidGeoJson`] for anything else.
+    /// [`Problem::InvalidGeoJson`](crate::earth::error::Problem::InvalidGeoJson) for anything else.
     pub fn parse(value: Value, allow_spline: bool) -> Result<Document, EarthError> {
         let Value::Object(mut map) = value else {
             return Err(invalid(

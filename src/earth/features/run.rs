@@ -8,7 +8,7 @@ use crate::earth::curve::stored::evaluate_curve;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::CurveJob;
 use crate::earth::job::{Job, Operation};
-use crate::earth::small_rings;
+use crate::earth::polygon::small_rings;
 use rayon::prelude::{IntoParallelRefIterator, ParallelIterator};
 use serde_json::Value;
 

@@ -1,17 +1,17 @@
 //! Validity of fitted polygons: rings that meet themselves or their feature's other rings
-//! where the input's did not are refitted tighter ([`crate::earth::validity`]).
+//! where the input's did not are refitted tighter ([`crate::earth::polygon::validity`]).
 
 use crate::earth::curve::fitting::fit_line_to_tolerance;
 use crate::earth::curve::output::CurveOutput;
-use crate::earth::curve::splice::refit_line_around;
 use crate::earth::error::EarthError;
 use crate::earth::features::run::output_spec;
 use crate::earth::features::CurveJob;
 use crate::earth::job::{Job, Operation};
 use crate::earth::lonlat::lonlat_to_unit;
 use crate::earth::lonlat::m_to_rad;
-use crate::earth::small_rings;
-use crate::earth::validity::{splice_around, tighten, Drawn, LAST_RESORT_M, REFIT_ROUNDS};
+use crate::earth::polygon::small_rings;
+use crate::earth::polygon::splice::refit_line_around;
+use crate::earth::polygon::validity::{splice_around, tighten, Drawn, LAST_RESORT_M, REFIT_ROUNDS};
 use crate::sphere::compress::tolerance::MAX_LENGTH_RATIO;
 use crate::sphere::fit::options::FitOptions;
 
@@ -19,7 +19,7 @@ use serde_json::{json, Value};
 
 /// Validity: the fitted rings of one feature (exterior rings, holes, the polygons of a
 /// MultiPolygon) must not meet themselves or each other where the input's rings did not, on
-/// the sphere or as written ([`crate::earth::validity`]). At a loose tolerance a fitted ring can
+/// the sphere or as written ([`crate::earth::polygon::validity`]). At a loose tolerance a fitted ring can
 /// cut across a narrow inlet, touch its hole (Antarctica's peninsula at 10 km does) or an island
 /// nearby (the Curonian Spit and Lithuania's coast at 1 km); each ring of such a pair is
 /// refitted tighter, up to [`REFIT_ROUNDS`] times (around the meeting only where it can be),

@@ -17,7 +17,7 @@
 
 /// The share of a tolerance that rounding a coverage's TopoJSON to its grid stays under (see
 /// the module docs): a third, the most for which the fit still aims below the tolerance by
-/// the rounding ([`crate::earth::curve::ToleranceRule::polyline_target_rad`]). With 1 km, 4
+/// the rounding (`polyline_target_rad`). With 1 km, 4
 /// steps of 0.001 degree (rounding moves a position by at most 314 m).
 pub const TOPOJSON_GRID_SHARE_OF_TOLERANCE: f64 = 1.0 / 3.0;
 

@@ -39,7 +39,7 @@ pub const DEFAULT_PRECISION: u32 = 7;
 
 /// The share of a tolerance that rounding the output to `precision` may take when the
 /// precision is chosen from the tolerance ([`precision_for_tolerance`]): a tenth. Rounding moves
-/// a control point by at most [`crate::earth::curve::rounding_bound_rad`], and the fitter aims
+/// a control point by at most [`rounding_bound_rad`](crate::earth::curve::fitting::rounding_bound_rad), and the fitter aims
 /// below the tolerance by 1.5 times that, so a tenth costs at most 15 % of the tolerance in the
 /// fit's aim; decimals beyond it are bytes that carry no information the tolerance asks for.
 pub const PRECISION_SHARE_OF_TOLERANCE: f64 = 0.1;
@@ -129,11 +129,11 @@ pub struct OutputOptions {
     pub sampling: Sampling,
     /// Decimals of output degrees (control points included).
     pub precision: u32,
-    /// Fits write their splines as compact curves (base64, [`crate::earth::curve::encode_compact`])
+    /// Fits write their splines as compact curves (base64, [`encode_compact`](crate::earth::curve::compact::encode_compact))
     /// instead of JSON documents: set by `carry=spline`.
     pub compact_splines: bool,
     /// A degree-1 spline whose control points are exactly its geometry's positions refers to
-    /// them (`"control_points": "geometry"`, [`crate::earth::curve::CONTROL_POINTS_OF_GEOMETRY`])
+    /// them (`"control_points": "geometry"`, [`CONTROL_POINTS_OF_GEOMETRY`](crate::earth::curve::stored::CONTROL_POINTS_OF_GEOMETRY))
     /// instead of repeating them. True by default; false where a spline is read back without
     /// its geometry (Python's `fit` column, which `evaluate` reads alone).
     pub splines_refer_to_geometry: bool,
@@ -201,7 +201,7 @@ pub struct Job {
     pub format: OutputFormat,
     /// `drop_small_rings`: a ring that collapses under the fit is dropped and listed in
     /// `properties.fit.dropped_rings`, instead of kept as a small valid ring
-    /// ([`super::small_rings`]).
+    /// ([`crate::earth::polygon::small_rings`]).
     pub drop_small_rings: bool,
     /// What each fitted feature carries (`carry`): geometry, spline or both.
     pub carry: Carry,

@@ -83,7 +83,7 @@ pub enum OutputFormat {
     /// A GeoJSON FeatureCollection (the default).
     #[default]
     GeoJson,
-    /// A TopoJSON topology ([`crate::earth::topojson`]); only with [`Topology::Shared`].
+    /// A TopoJSON topology ([`crate::earth::coverage::topojson`]); only with [`Topology::Shared`].
     TopoJson,
 }
 
@@ -160,7 +160,7 @@ impl OperationKind {
 /// `parameterization`: one of the math core's, or `time` (position as a function of time).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ParameterizationOption {
-    /// Position as a function of time ([`TimeOptions::fit_in_time`]).
+    /// Position as a function of time ([`TimeOptions::fit_in_time`](crate::earth::job::TimeOptions::fit_in_time)).
     Time,
     /// Chord, centripetal or uniform.
     Shape(Parameterization),
@@ -191,11 +191,11 @@ impl ParameterizationOption {
 
 /// The options of a GeoJSON operation as the user gave them: each `None` when not given. The
 /// service fills it from the query ([`RawOptions::set`]), the command line from its flags,
-/// Python from its keywords; [`into_job`] checks it and makes the [`Job`].
+/// Python from its keywords; [`into_job`](crate::earth::job::into_job::into_job) checks it and makes the [`Job`](crate::earth::job::Job).
 ///
 /// Adding an option: a field here, a line in [`RawOptions::set`] and
 /// [`RawOptions::given`], its name in [`OperationKind::option_names`], and its rule in
-/// [`into_job`] (README, "Adding an option", lists the other files).
+/// [`into_job`](crate::earth::job::into_job::into_job) (README, "Adding an option", lists the other files).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RawOptions {
     /// Control points per curve.
@@ -258,7 +258,7 @@ pub(super) const NUMBER: &str = "a number";
 impl RawOptions {
     /// Sets the option `name` from its text (a query parameter's value): integers in plain
     /// decimal digits, numbers as JSON writes them ([`parse_json_number`]), `true`/`false`,
-    /// names of the enumerations. Whether the value is in range is [`into_job`]'s business.
+    /// names of the enumerations. Whether the value is in range is [`into_job`](crate::earth::job::into_job::into_job)'s business.
     ///
     /// # Errors
     /// [`ParseError`] when `value` does not parse, or `name` is no option.

@@ -104,7 +104,7 @@ pub struct FitOptions {
     pub step: StepRule,
     /// The optimiser.
     pub solver: Solver,
-    /// Stops the fit (with [`SphereError::Cancelled`]) when cancelled or past its deadline.
+    /// Stops the fit (with [`SphereError::Cancelled`](crate::sphere::SphereError::Cancelled)) when cancelled or past its deadline.
     pub cancel: crate::sphere::cancel::Cancel,
     /// Move the data parameters to their foot points on the curve between updates
     /// ([`super::footpoint`]): every [`CORRECTION_INTERVAL`] GLS-PIA iterations, or after each

@@ -245,7 +245,7 @@ pub struct ToleranceOptions {
     /// ([`STABBING_SHARE`] by default). A polyline's two-way distance is bounded in closed
     /// form, tight to far less than the decision's 2 % (`sphere::certify::polyline`),
     /// so a caller may leave the decision less room: a coverage's first fit of its arcs takes
-    /// 0.99 (`earth::topology`). Not the default: rings fitted per feature at 0.99 meet one
+    /// 0.99 (`earth::coverage`). Not the default: rings fitted per feature at 0.99 meet one
     /// another more often, and their refits cost more than the vertices saved (world-atlas
     /// countries-10m at 20 km: 138,510 stored numbers against 92,842 at 0.95).
     pub stabbing_share: f64,

@@ -23,7 +23,7 @@ use crate::sphere::geometry::point::angle_between;
 use rustc_hash::FxHashMap as HashMap;
 
 /// Positions closer than this (radians; 0.6 mm on the Earth) are one vertex: the repeat rule of
-/// [`crate::earth::curve::REPEAT_ANGLE_RAD`], applied across rings.
+/// [`REPEAT_ANGLE_RAD`](crate::earth::curve::positions::REPEAT_ANGLE_RAD), applied across rings.
 pub const SHARED_VERTEX_RAD: f64 = crate::earth::curve::positions::REPEAT_ANGLE_RAD;
 
 /// One ring of the input: its positions as unit vectors, closing position included or not.

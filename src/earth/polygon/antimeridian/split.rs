@@ -25,8 +25,8 @@
 //! vertex of the curve is snapped or dropped as collinear (a planar clip drops vertices along a
 //! parallel, which on the sphere are not collinear at all).
 
-use crate::earth::antimeridian::Position;
 use crate::earth::lonlat::lonlat_to_unit;
+use crate::earth::polygon::antimeridian::Position;
 use crate::sphere::geometry::point::angle_between;
 
 /// Latitude where the great-circle step `q -> p` (lon/lat, taken the short way) meets the

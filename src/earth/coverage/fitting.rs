@@ -1,20 +1,20 @@
 //! A coverage's arcs fitted: every arc fitted once ([`fit_arc`]), then, for validity, arcs
 //! of one feature or meeting at a junction that meet each other (or an arc itself) where the
 //! input did not, on the sphere or as written, are refitted tighter, up to [`validity::REFIT_ROUNDS`]
-//! times ([`crate::earth::validity`]).
+//! times ([`crate::earth::polygon::validity`]).
 
+use crate::earth::coverage::arcs::ArcGraph;
+use crate::earth::coverage::fit_arc::{keep_arc, refit_around, tolerance_met_by};
+use crate::earth::coverage::phases::Phases;
+use crate::earth::coverage::read::RingSource;
+use crate::earth::coverage::rebuild::ring_lonlat;
+use crate::earth::coverage::{fit_arc, FittedArc};
 use crate::earth::curve::tolerance_rule::ToleranceRule;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::job::Job;
 use crate::earth::lonlat::m_to_rad;
-use crate::earth::small_rings;
-use crate::earth::topology::arcs::ArcGraph;
-use crate::earth::topology::fit_arc::{keep_arc, refit_around, tolerance_met_by};
-use crate::earth::topology::phases::Phases;
-use crate::earth::topology::read::RingSource;
-use crate::earth::topology::rebuild::ring_lonlat;
-use crate::earth::topology::{fit_arc, FittedArc};
-use crate::earth::validity::{self, Drawn, Tightened};
+use crate::earth::polygon::small_rings;
+use crate::earth::polygon::validity::{self, Drawn, Tightened};
 use rayon::prelude::{IntoParallelRefIterator, ParallelIterator};
 
 /// The arcs of a coverage, fitted.
@@ -172,7 +172,7 @@ pub(super) fn fit_arcs(
     tightened
 }
 
-/// Refits the arcs that meet where their input did not ([`crate::earth::validity::tighten`]),
+/// Refits the arcs that meet where their input did not ([`crate::earth::polygon::validity::tighten`]),
 /// up to [`validity::REFIT_ROUNDS`] times; a refit arc meets the tolerance when it is within the job's.
 fn tighten(
     fitting: &ArcFitting<'_>,

@@ -1,4 +1,4 @@
-//! TopoJSON output of a coverage fitted with shared topology ([`super::topology`]).
+//! TopoJSON output of a coverage fitted with shared topology ([`crate::earth::coverage`]).
 //!
 //! **Quantised, delta-encoded arcs.** The topology's `arcs` are the dense fitted arcs, written
 //! as TopoJSON's quantised integers: `transform` is `{"scale": [s, s], "translate":
@@ -28,9 +28,9 @@
 
 mod rings;
 
+use crate::earth::coverage::topojson::rings::{ArcIndex, Cell, Piece};
+use crate::earth::coverage::Coverage;
 use crate::earth::job::Carry;
-use crate::earth::topojson::rings::{ArcIndex, Cell, Piece};
-use crate::earth::topology::Coverage;
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
@@ -118,7 +118,7 @@ impl Quantisation {
 
 /// The compact spline of arc `a` (see the module docs): `None` when the arc as written is its
 /// spline.
-fn compact_spline(a: &super::topology::FittedArc, q: &Quantisation) -> Option<Value> {
+fn compact_spline(a: &crate::earth::coverage::FittedArc, q: &Quantisation) -> Option<Value> {
     let uniform = a.spline.has_clamped_uniform_knots();
     if a.spline.degree() == 1 && uniform && a.control_ll == a.dense_ll {
         return None;
@@ -230,7 +230,7 @@ pub fn to_topology(mut c: Coverage, precision: u32, carry: Carry) -> Value {
 /// of its own pushed to `own` (numbered from `first`).
 fn geometry_of(
     f: &Value,
-    rings: Option<&super::topology::PolygonArcs>,
+    rings: Option<&crate::earth::coverage::PolygonArcs>,
     q: &Quantisation,
     index: &ArcIndex<'_>,
     first: usize,
@@ -556,7 +556,7 @@ mod tests {
             },
             ..crate::earth::Job::fit(crate::sphere::FitOptions::default())
         };
-        let c = crate::earth::topology::fit_coverage(
+        let c = crate::earth::coverage::fit_coverage(
             crate::earth::Document::parse(doc, false).unwrap(),
             &job,
         )

@@ -1,6 +1,6 @@
 use super::*;
+use crate::earth::coverage::fit_arc::refit_around;
 use crate::earth::lonlat::{lonlat_to_unit, m_to_rad};
-use crate::earth::topology::fit_arc::refit_around;
 use crate::sphere::geometry::arc::distance_to_arc;
 use crate::sphere::FitOptions;
 
@@ -319,7 +319,7 @@ fn a_polygon_coverage_written_as_topojson_lies_on_the_coarser_grid_within_the_to
         );
         assert!(a.tolerance_met && a.two_way_rad <= m_to_rad(1000.0));
     }
-    let t = crate::earth::topojson::to_topology(c, 3, crate::earth::Carry::Geometry);
+    let t = crate::earth::coverage::topojson::to_topology(c, 3, crate::earth::Carry::Geometry);
     assert_eq!(t["transform"]["scale"], json!([0.004, 0.004]));
     // With a feature fitted on its own (a point), the coverage stays on the decimal grid.
     let c = fit_coverage(Document::parse(two_neighbours(), false).unwrap(), &j).unwrap();

@@ -1,9 +1,9 @@
 //! A coverage's dataset report (the GeoJSON collection's `topology` member).
 
+use crate::earth::coverage::arcs::ArcGraph;
+use crate::earth::coverage::rebuild::RebuiltFeature;
 use crate::earth::curve::output::{compression_ratio, round_up_m};
 use crate::earth::lonlat::{rad_to_m, round_to};
-use crate::earth::topology::arcs::ArcGraph;
-use crate::earth::topology::rebuild::RebuiltFeature;
 
 use serde_json::{json, Value};
 

@@ -45,7 +45,7 @@ use crate::earth::error::EarthError;
 use crate::earth::features::{Document, FeatureStats, Source};
 use crate::earth::job::{Job, Operation};
 use crate::earth::lonlat::{rad_to_m, round_to};
-use crate::earth::small_rings;
+use crate::earth::polygon::small_rings;
 use crate::sphere::compress::tolerance::KnotRule;
 use crate::sphere::curve::bspline::SphericalBSpline;
 use arcs::{ArcGraph, ArcUse};
@@ -207,6 +207,7 @@ mod report;
 mod snap;
 #[cfg(test)]
 mod tests;
+pub mod topojson;
 
 use fit_arc::fit_arc;
 use fitting::{fit_arcs, FittedArcs};

@@ -217,7 +217,7 @@ pub fn kept_lonlat(
 pub fn kept_two_way_rad(points: &[[f64; 3]], kept: &[[f64; 2]]) -> f64 {
     let outline: Vec<[f64; 3]> = kept
         .iter()
-        .map(|p| super::lonlat::lonlat_to_unit(p[0], p[1]))
+        .map(|p| crate::earth::lonlat::lonlat_to_unit(p[0], p[1]))
         .collect();
     if outline.is_empty() {
         return 0.0;
@@ -260,7 +260,7 @@ pub fn keep(
     tolerance_m: Option<f64>,
 ) -> Result<(CurveOutput, Kept), EarthError> {
     let line: LinePositions = parse_positions(value, pointer)?;
-    let tolerance_rad = tolerance_m.map(super::lonlat::m_to_rad);
+    let tolerance_rad = tolerance_m.map(crate::earth::lonlat::m_to_rad);
     let (kept_idx, how): (Vec<usize>, Kept) = match kept_indices(&line.points, tolerance_rad) {
         Some(idx) => (idx, Kept::Triangle),
         None => ((0..line.points.len()).collect(), Kept::Input),

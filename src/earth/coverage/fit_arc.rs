@@ -1,17 +1,17 @@
 //! One arc of a coverage fitted to the tolerance with pinned ends, rounded, sampled and
 //! measured as returned.
 
+use crate::earth::coverage::FittedArc;
 use crate::earth::curve::fitting::round_spline_with;
 use crate::earth::curve::output::sampling_start;
 use crate::earth::curve::positions::sphere_error;
-use crate::earth::curve::splice::{splice_windows, spliced_two_way, Splice, Spliced, WindowFit};
 use crate::earth::curve::tolerance_rule::ToleranceRule;
 use crate::earth::error::EarthError;
 use crate::earth::job::Job;
 use crate::earth::lonlat::unit_to_lonlat;
+use crate::earth::polygon::small_rings;
+use crate::earth::polygon::splice::{splice_windows, spliced_two_way, Splice, Spliced, WindowFit};
 use crate::earth::sampling::{sample, AUTO_DEVIATION_FRACTION};
-use crate::earth::small_rings;
-use crate::earth::topology::FittedArc;
 use crate::sphere::certify::two_way::{polyline_length, two_way_distance, TwoWayOptions};
 use crate::sphere::compress::tolerance::POLYLINE_FIRST_SHARE;
 use crate::sphere::compress::tolerance::{

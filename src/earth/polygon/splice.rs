@@ -23,7 +23,7 @@ use crate::sphere::SphereError;
 /// where it meets another line or itself: each run of such segments, with `margin` old
 /// vertices on either side, is refitted as a polyline pinned at the old vertices that bound
 /// it, through the positions between them, and spliced in; the rest is kept as it was, and the
-/// whole is measured and reported as [`fit_line_to_tolerance`] reports a fit to
+/// whole is measured and reported as [`fit_line_to_tolerance`](crate::earth::curve::fitting::fit_line_to_tolerance) reports a fit to
 /// `line_tolerance_m`, its `tolerance_m` the tighter one.
 ///
 /// Refitting a whole ring for one meeting stored a long coast's every stretch at the tighter
@@ -35,7 +35,7 @@ use crate::sphere::SphereError;
 /// moved: a window stops there.
 ///
 /// # Errors
-/// As [`fit_line_to_tolerance`] (the line was fitted once already, so only a cancelled job).
+/// As [`fit_line_to_tolerance`](crate::earth::curve::fitting::fit_line_to_tolerance) (the line was fitted once already, so only a cancelled job).
 pub fn refit_line_around(
     src: LineRef<'_>,
     options: &FitOptions,

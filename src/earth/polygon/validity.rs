@@ -338,7 +338,7 @@ pub(crate) fn tighten<T: Send + Sync, E: Send>(
     let mut tolerance = vec![tolerance_m; fitted.len()];
     // Fitted lines lie within the tolerance of their input, so a meeting the input has shows
     // within twice of it.
-    let near = 2.0 * super::lonlat::m_to_rad(tolerance_m);
+    let near = 2.0 * crate::earth::lonlat::m_to_rad(tolerance_m);
     let mut judged: Vec<(usize, usize)> = pairs.to_vec();
     for round in 0..=rounds.rounds {
         let output = Drawn::new(fitted.iter().map(&dense).collect(), input.precision);
@@ -478,7 +478,7 @@ fn splice_margin(tolerance_m: f64, t: f64) -> usize {
 }
 
 /// A line (drawn as `old_dense`, fitted at `tolerance_m`) refitted at `t` around its meeting
-/// segments `at` only, by `splice(segments, margin)` ([`crate::earth::curve::splice_windows`]
+/// segments `at` only, by `splice(segments, margin)` ([`crate::earth::polygon::splice_windows`]
 /// for rings per feature and shared arcs alike); `None` when the caller should refit the whole
 /// line. The line's own meetings are refitted with it: such a meeting is excused when its input
 /// touches itself anywhere, and a whole refit used to part it by the way (world-atlas

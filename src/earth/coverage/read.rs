@@ -2,14 +2,14 @@
 //! by one as without `topology=shared`; the rings of the polygon features (rejoined where they
 //! came cut at ±180) are read in order, each with where it came from.
 
-use crate::earth::antimeridian;
+use crate::earth::coverage::arcs::InputRing;
 use crate::earth::curve::positions::prepare_line;
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::{array_at, check_bbox, invalid, FeatureSlot};
 use crate::earth::features::{process_feature, Document, FeatureStats, Source};
 use crate::earth::job::Job;
 use crate::earth::lonlat::unit_to_lonlat;
-use crate::earth::topology::arcs::InputRing;
+use crate::earth::polygon::antimeridian;
 use rayon::prelude::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 use serde_json::{Map, Value};
 

@@ -2,13 +2,13 @@
 //! arcs' coordinates in ring order, cut at ±180 where it crosses, small rings kept or dropped) with
 //! its `properties.fit`.
 
+use crate::earth::coverage::arcs::{ArcGraph, ArcUse};
+use crate::earth::coverage::read::CoverageInput;
+use crate::earth::coverage::{FeatureRings, FittedArc, PolygonArcs};
 use crate::earth::curve::output::{compression_ratio, round_up_m};
 use crate::earth::job::{Job, OutputFormat};
 use crate::earth::lonlat::{rad_to_m, round_to};
-use crate::earth::topology::arcs::{ArcGraph, ArcUse};
-use crate::earth::topology::read::CoverageInput;
-use crate::earth::topology::{FeatureRings, FittedArc, PolygonArcs};
-use crate::earth::{antimeridian, area, small_rings};
+use crate::earth::polygon::{antimeridian, area, small_rings};
 
 use serde_json::{json, Map, Value};
 
