@@ -10,6 +10,7 @@ mod cli_sphere;
 mod compact_output;
 mod compression;
 mod default_fit;
+mod doc_paths;
 mod earth;
 mod helpers;
 mod hostile;
