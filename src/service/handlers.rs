@@ -7,7 +7,7 @@
 use super::error::ApiError;
 use super::query::{self, fit_options, GeoEndpoint, Params};
 use super::request::PostRequest;
-use super::{AppState, ServiceConfig, OPENAPI_YAML};
+use super::{AppState, ServiceConfig, OPENAPI_JSON, OPENAPI_JSON_TYPE, OPENAPI_YAML};
 use crate::document::{curve_from_json, InterpolationDocument};
 use crate::document::{pointer, tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::earth::{Document, FeatureStats, Job, Topology};
@@ -515,6 +515,10 @@ pub(super) async fn health() -> Response {
 
 pub(super) async fn openapi() -> Response {
     respond("application/yaml", OPENAPI_YAML.as_bytes().to_vec())
+}
+
+pub(super) async fn openapi_json() -> Response {
+    respond(OPENAPI_JSON_TYPE, OPENAPI_JSON.as_bytes().to_vec())
 }
 
 pub(super) async fn metrics(State(state): State<AppState>) -> Response {

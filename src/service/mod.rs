@@ -1,8 +1,8 @@
 //! The HTTP service (axum): GeoJSON in, fitted curves out, and the S^n documents of the CLI.
 //!
 //! [`router`] builds everything (routes and layers); `main` and the tests both call it. The
-//! contract is `openapi.yaml` (served at `/openapi.yaml`); errors are RFC 9457 problem+json
-//! (`error.rs`).
+//! contract is `openapi.yaml` (served at `/openapi.yaml`, and as JSON at `/openapi.json`, the
+//! landing page's `service-desc`); errors are RFC 9457 problem+json (`error.rs`).
 //!
 //! | route | what |
 //! |---|---|
@@ -10,7 +10,7 @@
 //! | `POST /v1/interpolate` | GeoJSON -> Beta-splines through every vertex, dense GeoJSON |
 //! | `POST /v1/evaluate` | `properties.fit` / `interpolation` (or a lon/lat spline) -> dense GeoJSON |
 //! | `POST /v1/sphere/fit`, `/interpolate`, `/evaluate` | the CLI's S^n JSON documents |
-//! | `GET /health`, `/openapi.yaml`, `/metrics` | liveness, contract, Prometheus text |
+//! | `GET /health`, `/openapi.yaml`, `/openapi.json`, `/metrics` | liveness, contract (YAML, JSON), Prometheus text |
 //! | `GET /`, `/page/{asset}`, `/v1/limits` | the map page (`page.rs`, `web/`), its files, the limits |
 //! | `GET /` (JSON), `/conformance`, `/processes…`, `/jobs…`, `/collections…` | OGC API – Processes and Features (`ogc/`) |
 //!
@@ -60,6 +60,16 @@ use tower_http::trace::{DefaultMakeSpan, DefaultOnResponse, TraceLayer};
 
 /// The contract, served at `/openapi.yaml`.
 pub const OPENAPI_YAML: &str = include_str!("../../openapi.yaml");
+
+/// The same contract as JSON, served at `/openapi.json` (the landing page's `service-desc`):
+/// derived from `openapi.yaml` at build time by `build.rs`, keys in the file's order.
+pub const OPENAPI_JSON: &str = include_str!(concat!(env!("OUT_DIR"), "/openapi.json"));
+
+/// The media type of [`OPENAPI_JSON`]: the one QGIS 3.22 looks for among the landing page's
+/// `service-desc` links (it ignores a YAML one and cannot open the layer). OGC API – Common
+/// names this type for an OpenAPI 3.0 definition; the document is OpenAPI 3.1, which uses the
+/// same structure for everything these clients read.
+pub const OPENAPI_JSON_TYPE: &str = "application/vnd.oai.openapi+json;version=3.0";
 
 /// Limits and runtime settings; every field has a `spherefit serve` flag and a `SPHEREFIT_*`
 /// environment variable.
@@ -277,6 +287,7 @@ pub fn router(state: AppState) -> Router {
         .route("/v1/sphere/evaluate", post(handlers::sphere_evaluate))
         .route("/health", get(handlers::health))
         .route("/openapi.yaml", get(handlers::openapi))
+        .route("/openapi.json", get(handlers::openapi_json))
         .route("/metrics", get(handlers::metrics))
         .merge(ogc::routes())
         .merge(page::routes())

@@ -8,7 +8,9 @@ use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
 use axum::Router;
 use serde_json::{json, Value};
-use spherefit::service::{router, AppState, ServiceConfig};
+use spherefit::service::{
+    router, AppState, ServiceConfig, OPENAPI_JSON, OPENAPI_JSON_TYPE, OPENAPI_YAML,
+};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use tower::ServiceExt;
@@ -235,6 +237,48 @@ async fn landing_page_and_conformance() {
     for c in CONFORMANCE {
         assert!(classes.as_array().unwrap().iter().any(|x| x == c), "{c}");
     }
+}
+
+/// The landing page's `service-desc` is the API definition as JSON, of the media type QGIS 3.22
+/// looks for (it cannot read YAML and the layer would be invalid), followed as QGIS follows it;
+/// the hand-written YAML stays linked as the alternate. Both answer the same document.
+#[tokio::test]
+async fn service_desc_is_the_json_api_definition() {
+    let dir = DataDir::new("service-desc");
+    let app = router(AppState::new(dir.config()));
+    let landing = send(&app, "GET", "/", &[("accept", "application/json")], vec![]).await;
+    let links = landing.json()["links"].as_array().unwrap().clone();
+    let descs: Vec<(&str, &str)> = links
+        .iter()
+        .filter(|l| l["rel"] == "service-desc")
+        .map(|l| (l["type"].as_str().unwrap(), l["href"].as_str().unwrap()))
+        .collect();
+    assert_eq!(
+        descs,
+        [
+            (
+                "application/vnd.oai.openapi+json;version=3.0",
+                "http://127.0.0.1:9/openapi.json"
+            ),
+            (
+                "application/vnd.oai.openapi;version=3.0",
+                "http://127.0.0.1:9/openapi.yaml"
+            ),
+        ]
+    );
+    assert_eq!(OPENAPI_JSON_TYPE, descs[0].0);
+    let accept = [("accept", "application/vnd.oai.openapi+json;version=3.0")];
+    let r = send(&app, "GET", "/openapi.json", &accept, vec![]).await;
+    assert_eq!(r.status, 200);
+    assert_eq!(r.header("content-type"), OPENAPI_JSON_TYPE);
+    let served = r.json();
+    assert_eq!(served["openapi"], "3.1.0");
+    assert!(served["paths"]["/collections/{collectionId}/items"]["get"].is_object());
+    assert_eq!(r.body, OPENAPI_JSON.as_bytes());
+    let yaml = get(&app, "/openapi.yaml").await;
+    assert_eq!(yaml.status, 200);
+    assert_eq!(yaml.header("content-type"), "application/yaml");
+    assert_eq!(yaml.body, OPENAPI_YAML.as_bytes());
 }
 
 /// Processes core and OGC process description: the list, each description (inputs generated

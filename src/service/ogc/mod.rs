@@ -24,7 +24,7 @@ mod store;
 pub(crate) use store::JobStore;
 
 use super::handlers::JSON;
-use super::AppState;
+use super::{AppState, OPENAPI_JSON_TYPE};
 use axum::extract::State;
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -144,7 +144,8 @@ pub(super) fn landing(headers: &HeaderMap) -> Response {
         "links": [
             link(format!("{b}/?f=json"), "self", JSON, "this document"),
             link(format!("{b}/"), "alternate", "text/html", "the map page"),
-            link(format!("{b}/openapi.yaml"), "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition"),
+            link(format!("{b}/openapi.json"), "service-desc", OPENAPI_JSON_TYPE, "the API definition (JSON)"),
+            link(format!("{b}/openapi.yaml"), "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition (YAML, the hand-written source)"),
             link(format!("{b}/conformance"), "conformance", JSON, "conformance classes"),
             link(format!("{b}/conformance"), "http://www.opengis.net/def/rel/ogc/1.0/conformance", JSON, "conformance classes"),
             link(format!("{b}/processes"), "http://www.opengis.net/def/rel/ogc/1.0/processes", JSON, "processes"),
