@@ -22,6 +22,7 @@ case "$1" in
     [ -x /usr/bin/chromium ] || pkgs+=(chromium)
     command -v java >/dev/null 2>&1 || pkgs+=(openjdk-17-jre-headless)
     command -v node >/dev/null 2>&1 || pkgs+=(nodejs npm)
+    [ -x /usr/lib/postgresql/15/bin/initdb ] || pkgs+=(postgresql)   # .ci/postgres.sh
     for t in podman buildah runc debootstrap; do
       command -v "$t" >/dev/null 2>&1 || pkgs+=("$t")
     done

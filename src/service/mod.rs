@@ -29,6 +29,7 @@
 //! (`max_body_bytes_in_flight`); a body over the limit is read and discarded for a bounded time before
 //! the 413 is sent, so that clients that write the whole body before reading see it.
 
+pub mod auth;
 mod body;
 pub(crate) mod error;
 mod handlers;
@@ -107,8 +108,18 @@ pub struct ServiceConfig {
     pub data_dir: Option<std::path::PathBuf>,
     /// Time budget of one asynchronous job (it ends `failed` past it).
     pub job_timeout: Duration,
-    /// Jobs accepted and not finished at once; past that, 429 with `Retry-After`.
+    /// Jobs accepted and not finished at once (all owners; with PostgreSQL, all replicas);
+    /// past that, 429 with `Retry-After`.
     pub max_jobs: usize,
+    /// Jobs of one owner accepted and not finished at once; past that, 429 with `Retry-After`.
+    pub max_owner_jobs: usize,
+    /// API keys (`auth`): with them every route but `/health` and the page's files needs a
+    /// bearer token, and each job belongs to its token's owner; without them the service is
+    /// open and every caller is one anonymous owner.
+    pub api_keys: Option<auth::ApiKeys>,
+    /// How long a replica's claim on a PostgreSQL job lasts without a heartbeat (the running
+    /// replica renews it several times per lease); past it, another replica takes the job up.
+    pub job_lease: Duration,
     /// Bytes the job store may hold on disk (results and status files); a result that does not
     /// fit fails its job, a new job that does not fit is refused (503).
     pub store_bytes: u64,
@@ -138,6 +149,9 @@ impl Default for ServiceConfig {
             data_dir: None,
             job_timeout: Duration::from_secs(3600),
             max_jobs: 4,
+            max_owner_jobs: 4,
+            api_keys: None,
+            job_lease: Duration::from_secs(30),
             store_bytes: 1 << 30,
             job_expiry: Duration::from_secs(24 * 3600),
         }
@@ -157,8 +171,31 @@ pub struct AppState {
 }
 
 impl AppState {
-    /// State for `config`.
+    /// State for `config`, with the job store on disk (`data_dir`).
     pub fn new(config: ServiceConfig) -> AppState {
+        let jobs = ogc::JobStore::Disk(ogc::DiskStore::open(&config));
+        AppState::with_jobs(config, jobs)
+    }
+
+    /// State for `config` with the job store in the PostgreSQL database at `url`
+    /// (`postgres://` or `postgresql://`): its tables are made or brought up to date, and this
+    /// replica's worker starts taking waiting jobs (`ogc::postgres`). Waits for the database
+    /// for at most `wait` (a replica may start before it).
+    ///
+    /// # Errors
+    /// The URL cannot be read, or the database cannot be reached or migrated within `wait`.
+    pub async fn with_postgres(
+        config: ServiceConfig,
+        url: &str,
+        wait: Duration,
+    ) -> Result<AppState, String> {
+        let store = ogc::PgStore::open(url, &config, wait).await?;
+        let state = AppState::with_jobs(config, ogc::JobStore::Postgres(store));
+        ogc::start_worker(&state);
+        Ok(state)
+    }
+
+    fn with_jobs(config: ServiceConfig, jobs: ogc::JobStore) -> AppState {
         let gate = FitGate {
             slots: Arc::new(Semaphore::new(config.fit_concurrency.max(1))),
             waiting: AtomicUsize::new(0),
@@ -170,7 +207,7 @@ impl AppState {
                 .max(config.max_body_bytes)
                 .min(Semaphore::MAX_PERMITS),
         ));
-        let jobs = Arc::new(ogc::JobStore::open(&config));
+        let jobs = Arc::new(jobs);
         AppState {
             config: Arc::new(config),
             metrics: Arc::new(Metrics::default()),
@@ -213,6 +250,19 @@ impl Drop for Slot {
 }
 
 impl AppState {
+    /// Waits for a free fitting slot and takes it (a PostgreSQL replica's worker takes a job
+    /// only when it holds one; it waits outside the request queue).
+    pub(crate) async fn free_slot(&self) -> Option<Slot> {
+        let permit = self.gate.slots.clone().acquire_owned().await.ok()?;
+        self.metrics
+            .fits_in_progress
+            .fetch_add(1, Ordering::Relaxed);
+        Some(Slot {
+            _permit: permit,
+            metrics: self.metrics.clone(),
+        })
+    }
+
     /// Takes a fitting slot, waiting in the queue until `deadline` if there is room in it.
     ///
     /// # Errors
@@ -295,6 +345,10 @@ pub fn router(state: AppState) -> Router {
         .layer(DefaultBodyLimit::disable())
         .layer(inner)
         .layer(outer)
+        .layer(middleware::from_fn_with_state(
+            state.clone(),
+            auth::authenticate,
+        ))
         .layer(middleware::from_fn(problem_for_bare_errors))
         .layer(middleware::from_fn_with_state(state.clone(), track_metrics))
         .with_state(state)

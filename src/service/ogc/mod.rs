@@ -10,17 +10,24 @@
 //! | `processes.rs` | `GET /processes`, `GET /processes/{id}` (`fit`, `interpolate`, `evaluate`) |
 //! | `execute.rs` | `POST /processes/{id}/execution`: synchronous, or a job with `Prefer: respond-async` |
 //! | `jobs.rs` | `GET /jobs`, `GET`/`DELETE /jobs/{id}`, `GET /jobs/{id}/results` |
-//! | `store.rs` | the job store on disk (size budget, expiry, restarts) |
+//! | `store.rs` | the job store: owners, and the calls both stores answer |
+//! | `disk.rs` | the job store on disk (size budget, expiry, restarts) |
+//! | `postgres.rs` | the job store in PostgreSQL (a queue any replica takes jobs from, leases) |
 //! | `features.rs` | `GET /collections…`: each successful GeoJSON job as a feature collection |
 //!
 //! Links are absolute, made from the request's `Host` header (GDAL and OWSLib follow them).
 
+mod disk;
 mod execute;
 mod features;
 mod jobs;
+mod postgres;
 mod processes;
 mod store;
 
+pub(crate) use disk::DiskStore;
+pub(crate) use execute::start_worker;
+pub(crate) use postgres::PgStore;
 pub(crate) use store::JobStore;
 
 use super::handlers::JSON;
