@@ -26,8 +26,7 @@ case "$1" in
     for t in podman buildah runc debootstrap; do
       command -v "$t" >/dev/null 2>&1 || pkgs+=("$t")
     done
-    # The replicated deployment (.ci/replicas.sh): PostgreSQL 15, haproxy, QGIS 3.22 headless.
-    [ -x /usr/lib/postgresql/15/bin/initdb ] || pkgs+=(postgresql)
+    # The replicated deployment (.ci/replicas.sh): PostgreSQL 15 (above), haproxy, QGIS 3.22.
     command -v haproxy >/dev/null 2>&1 || pkgs+=(haproxy)
     /usr/bin/python3 -c 'import qgis.core' >/dev/null 2>&1 || pkgs+=(qgis python3-qgis)
     if [ "${#pkgs[@]}" -gt 0 ]; then
