@@ -9,7 +9,8 @@ FROM rust:1.95-bookworm AS build
 WORKDIR /src
 # The workspace manifest names the Python package, so cargo needs its manifest and sources to
 # load the workspace (they are not built); the benches are declared targets and must exist.
-COPY Cargo.toml Cargo.lock openapi.yaml ./
+# build.rs derives the JSON API definition (/openapi.json) from openapi.yaml.
+COPY Cargo.toml Cargo.lock openapi.yaml build.rs ./
 COPY python/Cargo.toml python/Cargo.toml
 COPY python/src python/src
 COPY benches/sphere.rs benches/beta.rs benches/

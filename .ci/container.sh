@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The container image, built and run as the README says (run as root; called from .ci/run):
-#   1. hadolint on the Dockerfile; kubernetes-validate --strict on deploy/*.yaml;
+#   1. hadolint on the Dockerfile; kubernetes-validate --strict on deploy/*.yaml, and what the
+#      schema cannot check (.ci/deploy_check.py: read-only roots, volumes, Secrets);
 #   2. offline base images (.ci/container-base.sh), then the README's `docker build`;
 #   3. the service: /health, the image's HEALTHCHECK, one fit;
 #   4. a batch job reading a GeoJSON text sequence on stdin and writing one on stdout;
@@ -50,6 +51,8 @@ fi
 export PATH="$ROOT/$venv/bin:$PATH"
 step "hadolint Dockerfile"; hadolint Dockerfile && echo "no findings"
 step "kubernetes-validate --strict deploy/*.yaml"; kubernetes-validate --strict deploy/*.yaml
+step "deploy/: read-only roots, volumes, the store URL and keys from Secrets"
+"$venv/bin/python" .ci/deploy_check.py deploy/*.yaml
 
 step "base images"; bash .ci/container-base.sh
 

@@ -2,7 +2,8 @@
 # Real OGC API clients against the release server on loopback (issue #27): OWSLib (PyPI) lists
 # the processes and runs `fit` synchronously and as a job (scripts/ogc/owslib_check.py); GDAL's
 # ogrinfo (Debian gdal-bin) opens the finished job through the OAPIF driver and must list every
-# feature with its properties; the job survives a restart of the service.
+# feature with its properties; so does QGIS 3.22 (Debian qgis + python3-qgis, headless;
+# scripts/ogc/qgis_check.py), which also renders it; the job survives a restart of the service.
 # Self-contained and bounded in time (each server stops itself after 120 s). Called from .ci/run.
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
@@ -15,10 +16,8 @@ venv=target/ogc-venv
 if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c 'import owslib' 2>/dev/null; then
   bash .ci/prefetch.sh ogc-venv
 fi
-if ! command -v ogrinfo >/dev/null 2>&1; then
-  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends gdal-bin >/dev/null
+if ! command -v ogrinfo >/dev/null 2>&1 || ! /usr/bin/python3 -c 'import qgis.core' 2>/dev/null; then
+  bash .ci/prefetch.sh debian
 fi
 echo "== cargo build --release"
 cargo build --release --quiet
@@ -70,6 +69,9 @@ check_ogrinfo() {
 }
 check_ogrinfo "before a restart"
 timeout 60 ogrinfo -ro -so "OAPIF:$URL/" | grep -q "$JOB"
+
+echo "== QGIS 3.22 (PyQGIS, headless): the job as an OAPIF layer, every feature, a PNG"
+QT_QPA_PLATFORM=offscreen timeout 300 /usr/bin/python3 scripts/ogc/qgis_check.py "$URL/" "$JOB" "$WORK/qgis.png"
 
 echo "== restart: the finished job stays readable"
 stop_server

@@ -15,15 +15,20 @@ need_node() {
 
 case "$1" in
   debian)
-    # One apt-get for every Debian package (apt holds a lock: two at once would wait).
+    # One apt-get for every Debian package (apt holds a lock: two at once would wait). Debian
+    # starts a `main` cluster when it installs postgresql; .ci/replicas.sh runs its own.
     pkgs=()
     command -v ogrinfo >/dev/null 2>&1 || pkgs+=(gdal-bin)
     [ -x /usr/bin/chromium ] || pkgs+=(chromium)
     command -v java >/dev/null 2>&1 || pkgs+=(openjdk-17-jre-headless)
     command -v node >/dev/null 2>&1 || pkgs+=(nodejs npm)
+    [ -x /usr/lib/postgresql/15/bin/initdb ] || pkgs+=(postgresql)   # .ci/postgres.sh
     for t in podman buildah runc debootstrap; do
       command -v "$t" >/dev/null 2>&1 || pkgs+=("$t")
     done
+    # The replicated deployment (.ci/replicas.sh): PostgreSQL 15 (above), haproxy, QGIS 3.22.
+    command -v haproxy >/dev/null 2>&1 || pkgs+=(haproxy)
+    /usr/bin/python3 -c 'import qgis.core' >/dev/null 2>&1 || pkgs+=(qgis python3-qgis)
     if [ "${#pkgs[@]}" -gt 0 ]; then
       echo "apt-get install ${pkgs[*]}"
       $SUDO apt-get update -qq

@@ -61,6 +61,24 @@ pub(crate) struct ServeArgs {
     /// restarts) [default: spherefit-data under the system's temporary directory]
     #[arg(long, env = "SPHEREFIT_DATA_DIR")]
     data_dir: Option<std::path::PathBuf>,
+    /// Where jobs are kept: a postgres:// or postgresql:// URL keeps them in PostgreSQL, shared
+    /// by every replica given the same URL (tables made at start); a path is the disk store's
+    /// directory, as --data-dir [default: the disk store]
+    #[arg(long, env = "SPHEREFIT_JOB_STORE")]
+    job_store: Option<String>,
+    /// File of API keys, one `OWNER:SHA256_HEX_OF_TOKEN` a line (`#` comments): every route
+    /// but /health and the page's files then needs `Authorization: Bearer TOKEN`, and each
+    /// owner sees only its own jobs [default: no keys, the service is open to anyone who can
+    /// reach it]
+    #[arg(long, env = "SPHEREFIT_API_KEYS_FILE")]
+    api_keys: Option<std::path::PathBuf>,
+    /// Jobs of one owner waiting or running at once; past that, 429 with Retry-After
+    #[arg(long, env = "SPHEREFIT_MAX_OWNER_JOBS", default_value_t = ServiceConfig::default().max_owner_jobs)]
+    max_owner_jobs: usize,
+    /// With PostgreSQL: how long a replica's claim on a running job lasts without renewal, in
+    /// seconds; a job whose replica died is taken up by another after this
+    #[arg(long, env = "SPHEREFIT_JOB_LEASE_S", default_value_t = ServiceConfig::default().job_lease.as_secs_f64())]
+    job_lease_s: f64,
     /// Time budget of one asynchronous job, in seconds; past it the job ends failed
     #[arg(long, env = "SPHEREFIT_JOB_TIMEOUT_S", default_value_t = ServiceConfig::default().job_timeout.as_secs_f64())]
     job_timeout_s: f64,
@@ -83,6 +101,16 @@ pub(crate) struct ServeArgs {
     exit_after_s: Option<f64>,
 }
 
+/// Where `serve` keeps its jobs.
+#[derive(Clone, Debug, PartialEq)]
+enum Store {
+    Disk,
+    Postgres(String),
+}
+
+/// How long `serve` waits for PostgreSQL at start (a replica may start before the database).
+const POSTGRES_WAIT: Duration = Duration::from_secs(30);
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum LogFormat {
     Auto,
@@ -91,6 +119,33 @@ enum LogFormat {
 }
 
 impl ServeArgs {
+    /// The job store asked for, and the disk store's directory.
+    fn store(&self) -> Result<(Store, std::path::PathBuf), Failure> {
+        let dir = self.data_dir.clone().unwrap_or_else(default_data_dir);
+        match self.job_store.as_deref().map(str::trim) {
+            None | Some("") => Ok((Store::Disk, dir)),
+            Some(url)
+                if url.starts_with("postgres://") || url.starts_with("postgresql://") =>
+            {
+                Ok((Store::Postgres(url.to_string()), dir))
+            }
+            Some(other) if other.contains("://") => Err(Failure::input(
+                "--job-store: only postgres:// or postgresql:// URLs, or a directory, are job stores".to_string(),
+            )),
+            Some(path) => {
+                let path = std::path::PathBuf::from(path);
+                match &self.data_dir {
+                    Some(d) if *d != path => Err(Failure::input(format!(
+                        "--job-store {} and --data-dir {} name two different directories: give one",
+                        path.display(),
+                        d.display()
+                    ))),
+                    _ => Ok((Store::Disk, path)),
+                }
+            }
+        }
+    }
+
     fn config(&self) -> Result<ServiceConfig, Failure> {
         let request_timeout = seconds("--timeout-s", self.timeout_s)?;
         let body_timeout = seconds("--body-timeout-s", self.body_timeout_s)?.min(request_timeout);
@@ -99,6 +154,11 @@ impl ServeArgs {
             seconds("--exit-after-s", s)?;
         }
         let d = ServiceConfig::default();
+        let (_, data_dir) = self.store()?;
+        let api_keys = match &self.api_keys {
+            None => None,
+            Some(path) => Some(service::auth::ApiKeys::read(path).map_err(Failure::input)?),
+        };
         Ok(ServiceConfig {
             max_body_bytes: self.max_body_bytes,
             max_points: self.max_points,
@@ -116,9 +176,12 @@ impl ServeArgs {
             max_body_bytes_in_flight: self.max_body_bytes_in_flight,
             header_timeout,
             max_connections: self.max_connections.max(1),
-            data_dir: Some(self.data_dir.clone().unwrap_or_else(default_data_dir)),
+            data_dir: Some(data_dir),
             job_timeout: seconds("--job-timeout-s", self.job_timeout_s)?,
             max_jobs: self.max_jobs.max(1),
+            max_owner_jobs: self.max_owner_jobs.max(1),
+            api_keys,
+            job_lease: seconds("--job-lease-s", self.job_lease_s)?,
             store_bytes: self.store_bytes,
             job_expiry: seconds("--job-expiry-s", self.job_expiry_s)?,
         })
@@ -171,6 +234,7 @@ fn init_logging(format: LogFormat) {
 
 pub(crate) fn run(args: ServeArgs) -> Result<(), Failure> {
     let config = args.config()?;
+    let (store, _) = args.store()?;
     init_logging(args.log_format);
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
@@ -182,6 +246,16 @@ pub(crate) fn run(args: ServeArgs) -> Result<(), Failure> {
             .await
             .map_err(|e| Failure::input(format!("cannot listen on {}: {e}", args.addr)))?;
         let local = listener.local_addr().map_err(|e| Failure::input(e.to_string()))?;
+        let owners = config
+            .api_keys
+            .as_ref()
+            .map_or_else(|| "none (open service)".to_string(), |k| k.owners().join(","));
+        let state = match &store {
+            Store::Disk => AppState::new(config.clone()),
+            Store::Postgres(url) => AppState::with_postgres(config.clone(), url, POSTGRES_WAIT)
+                .await
+                .map_err(Failure::input)?,
+        };
         tracing::info!(
             addr = %local,
             fit_concurrency = config.fit_concurrency,
@@ -189,6 +263,8 @@ pub(crate) fn run(args: ServeArgs) -> Result<(), Failure> {
             max_body_bytes = config.max_body_bytes,
             max_points = config.max_points,
             timeout_s = config.request_timeout.as_secs_f64(),
+            job_store = if store == Store::Disk { "disk" } else { "postgresql" },
+            api_key_owners = %owners,
             "spherefit listening"
         );
         let shutdown = async move {
@@ -202,7 +278,7 @@ pub(crate) fn run(args: ServeArgs) -> Result<(), Failure> {
                 None => service::shutdown_signal().await,
             }
         };
-        service::serve(listener, AppState::new(config), shutdown)
+        service::serve(listener, state, shutdown)
             .await
             .map_err(|e| Failure::input(format!("server error: {e}")))?;
         tracing::info!("stopped");
@@ -234,5 +310,43 @@ mod tests {
             ..ServiceConfig::default()
         };
         assert_eq!(args.config().unwrap(), expected);
+        assert_eq!(args.store().unwrap().0, Store::Disk);
+    }
+
+    #[test]
+    fn the_job_store_is_a_postgres_url_or_a_directory() {
+        let parse = |a: &[&str]| {
+            let mut v = vec!["serve"];
+            v.extend_from_slice(a);
+            Serve::try_parse_from(v).unwrap().args
+        };
+        let a = parse(&["--job-store", "postgres://u:p@db:5432/jobs"]);
+        assert_eq!(
+            a.store().unwrap().0,
+            Store::Postgres("postgres://u:p@db:5432/jobs".into())
+        );
+        let a = parse(&["--job-store", "postgresql://db/jobs"]);
+        assert!(matches!(a.store().unwrap().0, Store::Postgres(_)));
+        let a = parse(&["--job-store", "/srv/jobs"]);
+        assert_eq!(
+            a.config().unwrap().data_dir,
+            Some(std::path::PathBuf::from("/srv/jobs"))
+        );
+        let e = parse(&["--job-store", "/a", "--data-dir", "/b"])
+            .config()
+            .unwrap_err();
+        assert!(
+            e.message.contains("two different directories"),
+            "{}",
+            e.message
+        );
+        let e = parse(&["--job-store", "mysql://db/x"]).store().unwrap_err();
+        assert!(e.message.contains("postgres://"), "{}", e.message);
+        let e = parse(&["--api-keys", "/nonexistent/keys"])
+            .config()
+            .unwrap_err();
+        assert!(e.message.contains("/nonexistent/keys"), "{}", e.message);
+        let e = parse(&["--job-lease-s", "0"]).config().unwrap_err();
+        assert!(e.message.contains("--job-lease-s"), "{}", e.message);
     }
 }

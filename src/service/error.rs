@@ -9,6 +9,7 @@
 //! | 400 | `invalid-query` | unknown, repeated, empty or unparsable query parameter |
 //! | 400 | `unreadable-body` | the body was cut short or the connection failed |
 //! | 408 | `body-timeout` | the body did not arrive within the body timeout |
+//! | 401 | `unauthorized` | a key file is in use and the bearer token is missing or wrong (`WWW-Authenticate`) |
 //! | 404 | `not-found` | no such path |
 //! | 405 | `method-not-allowed` | wrong method for the path |
 //! | 413 | `body-too-large` | body over the byte limit |
@@ -20,6 +21,7 @@
 //! | 422 | `invalid-reference` | an input `href` that is not one of this server's successful jobs |
 //! | 429 | `too-many-jobs` | as many jobs accepted and unfinished as the server runs (`Retry-After`) |
 //! | 503 | `store-full` | the job store has no room for another job (`Retry-After`) |
+//! | 503 | `store-unavailable` | the job store cannot be written or reached (`Retry-After`) |
 //! | 503 | `overloaded` | the fitting slots and their queue are full (`Retry-After`) |
 //! | 503 | `timeout` | the request ran past its time budget (`Retry-After`) |
 //! | 500 | `internal` | a bug (logged; the detail says nothing more) |
@@ -210,7 +212,9 @@ pub fn title_of(slug: &str) -> &'static str {
         "invalid-reference" => "Invalid input reference",
         "too-many-jobs" => "Too many jobs",
         "store-full" => "Job store full",
+        "store-unavailable" => "Job store unavailable",
         "result-not-ready" => "Result not ready",
+        "unauthorized" => "Unauthorized",
         other => crate::earth::error::title_of(other),
     }
 }

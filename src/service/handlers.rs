@@ -4,7 +4,12 @@
 //! ([`super::request::Accepted::run`]), checking every output size before the work that would
 //! make it.
 
-use crate::document::beta::{curve_from_json, InterpolationDocument};
+use crate::service::error::ApiError;
+use crate::service::query;
+use crate::service::query::{GeoEndpoint, Params, fit_options};
+use crate::service::request::PostRequest;
+use crate::service::{AppState, OPENAPI_JSON, OPENAPI_JSON_TYPE, OPENAPI_YAML, ServiceConfig};
+use crate::document::beta::{InterpolationDocument, curve_from_json};
 use crate::document::{pointer, tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::earth::features::{Document, FeatureStats};
 use crate::earth::job::{Job, Topology};
@@ -525,6 +530,10 @@ pub(super) async fn health() -> Response {
 
 pub(super) async fn openapi() -> Response {
     respond("application/yaml", OPENAPI_YAML.as_bytes().to_vec())
+}
+
+pub(super) async fn openapi_json() -> Response {
+    respond(OPENAPI_JSON_TYPE, OPENAPI_JSON.as_bytes().to_vec())
 }
 
 pub(super) async fn metrics(State(state): State<AppState>) -> Response {

@@ -1,8 +1,8 @@
 //! The HTTP service (axum): GeoJSON in, fitted curves out, and the S^n documents of the CLI.
 //!
 //! [`router`] builds everything (routes and layers); `main` and the tests both call it. The
-//! contract is `openapi.yaml` (served at `/openapi.yaml`); errors are RFC 9457 problem+json
-//! (`error.rs`).
+//! contract is `openapi.yaml` (served at `/openapi.yaml`, and as JSON at `/openapi.json`, the
+//! landing page's `service-desc`); errors are RFC 9457 problem+json (`error.rs`).
 //!
 //! | route | what |
 //! |---|---|
@@ -10,7 +10,7 @@
 //! | `POST /v1/interpolate` | GeoJSON -> Beta-splines through every vertex, dense GeoJSON |
 //! | `POST /v1/evaluate` | `properties.fit` / `interpolation` (or a lon/lat spline) -> dense GeoJSON |
 //! | `POST /v1/sphere/fit`, `/interpolate`, `/evaluate` | the CLI's S^n JSON documents |
-//! | `GET /health`, `/openapi.yaml`, `/metrics` | liveness, contract, Prometheus text |
+//! | `GET /health`, `/openapi.yaml`, `/openapi.json`, `/metrics` | liveness, contract (YAML, JSON), Prometheus text |
 //! | `GET /`, `/page/{asset}`, `/v1/limits` | the map page (`page.rs`, `web/`), its files, the limits |
 //! | `GET /` (JSON), `/conformance`, `/processes…`, `/jobs…`, `/collections…` | OGC API – Processes and Features (`ogc/`) |
 //!
@@ -29,6 +29,7 @@
 //! (`max_body_bytes_in_flight`); a body over the limit is read and discarded for a bounded time before
 //! the 413 is sent, so that clients that write the whole body before reading see it.
 
+pub mod auth;
 mod body;
 pub(crate) mod error;
 mod handlers;
@@ -60,6 +61,16 @@ use tower_http::trace::{DefaultMakeSpan, DefaultOnResponse, TraceLayer};
 
 /// The contract, served at `/openapi.yaml`.
 pub const OPENAPI_YAML: &str = include_str!("../../openapi.yaml");
+
+/// The same contract as JSON, served at `/openapi.json` (the landing page's `service-desc`):
+/// derived from `openapi.yaml` at build time by `build.rs`, keys in the file's order.
+pub const OPENAPI_JSON: &str = include_str!(concat!(env!("OUT_DIR"), "/openapi.json"));
+
+/// The media type of [`OPENAPI_JSON`]: the one QGIS 3.22 looks for among the landing page's
+/// `service-desc` links (it ignores a YAML one and cannot open the layer). OGC API – Common
+/// names this type for an OpenAPI 3.0 definition; the document is OpenAPI 3.1, which uses the
+/// same structure for everything these clients read.
+pub const OPENAPI_JSON_TYPE: &str = "application/vnd.oai.openapi+json;version=3.0";
 
 /// Limits and runtime settings; every field has a `spherefit serve` flag and a `SPHEREFIT_*`
 /// environment variable.
@@ -97,8 +108,18 @@ pub struct ServiceConfig {
     pub data_dir: Option<std::path::PathBuf>,
     /// Time budget of one asynchronous job (it ends `failed` past it).
     pub job_timeout: Duration,
-    /// Jobs accepted and not finished at once; past that, 429 with `Retry-After`.
+    /// Jobs accepted and not finished at once (all owners; with PostgreSQL, all replicas);
+    /// past that, 429 with `Retry-After`.
     pub max_jobs: usize,
+    /// Jobs of one owner accepted and not finished at once; past that, 429 with `Retry-After`.
+    pub max_owner_jobs: usize,
+    /// API keys (`auth`): with them every route but `/health` and the page's files needs a
+    /// bearer token, and each job belongs to its token's owner; without them the service is
+    /// open and every caller is one anonymous owner.
+    pub api_keys: Option<auth::ApiKeys>,
+    /// How long a replica's claim on a PostgreSQL job lasts without a heartbeat (the running
+    /// replica renews it several times per lease); past it, another replica takes the job up.
+    pub job_lease: Duration,
     /// Bytes the job store may hold on disk (results and status files); a result that does not
     /// fit fails its job, a new job that does not fit is refused (503).
     pub store_bytes: u64,
@@ -128,6 +149,9 @@ impl Default for ServiceConfig {
             data_dir: None,
             job_timeout: Duration::from_secs(3600),
             max_jobs: 4,
+            max_owner_jobs: 4,
+            api_keys: None,
+            job_lease: Duration::from_secs(30),
             store_bytes: 1 << 30,
             job_expiry: Duration::from_secs(24 * 3600),
         }
@@ -147,8 +171,31 @@ pub struct AppState {
 }
 
 impl AppState {
-    /// State for `config`.
+    /// State for `config`, with the job store on disk (`data_dir`).
     pub fn new(config: ServiceConfig) -> AppState {
+        let jobs = ogc::JobStore::Disk(ogc::DiskStore::open(&config));
+        AppState::with_jobs(config, jobs)
+    }
+
+    /// State for `config` with the job store in the PostgreSQL database at `url`
+    /// (`postgres://` or `postgresql://`): its tables are made or brought up to date, and this
+    /// replica's worker starts taking waiting jobs (`ogc::postgres`). Waits for the database
+    /// for at most `wait` (a replica may start before it).
+    ///
+    /// # Errors
+    /// The URL cannot be read, or the database cannot be reached or migrated within `wait`.
+    pub async fn with_postgres(
+        config: ServiceConfig,
+        url: &str,
+        wait: Duration,
+    ) -> Result<AppState, String> {
+        let store = ogc::PgStore::open(url, &config, wait).await?;
+        let state = AppState::with_jobs(config, ogc::JobStore::Postgres(store));
+        ogc::start_worker(&state);
+        Ok(state)
+    }
+
+    fn with_jobs(config: ServiceConfig, jobs: ogc::JobStore) -> AppState {
         let gate = FitGate {
             slots: Arc::new(Semaphore::new(config.fit_concurrency.max(1))),
             waiting: AtomicUsize::new(0),
@@ -160,7 +207,7 @@ impl AppState {
                 .max(config.max_body_bytes)
                 .min(Semaphore::MAX_PERMITS),
         ));
-        let jobs = Arc::new(ogc::JobStore::open(&config));
+        let jobs = Arc::new(jobs);
         AppState {
             config: Arc::new(config),
             metrics: Arc::new(Metrics::default()),
@@ -203,6 +250,19 @@ impl Drop for Slot {
 }
 
 impl AppState {
+    /// Waits for a free fitting slot and takes it (a PostgreSQL replica's worker takes a job
+    /// only when it holds one; it waits outside the request queue).
+    pub(crate) async fn free_slot(&self) -> Option<Slot> {
+        let permit = self.gate.slots.clone().acquire_owned().await.ok()?;
+        self.metrics
+            .fits_in_progress
+            .fetch_add(1, Ordering::Relaxed);
+        Some(Slot {
+            _permit: permit,
+            metrics: self.metrics.clone(),
+        })
+    }
+
     /// Takes a fitting slot, waiting in the queue until `deadline` if there is room in it.
     ///
     /// # Errors
@@ -277,6 +337,7 @@ pub fn router(state: AppState) -> Router {
         .route("/v1/sphere/evaluate", post(handlers::sphere_evaluate))
         .route("/health", get(handlers::health))
         .route("/openapi.yaml", get(handlers::openapi))
+        .route("/openapi.json", get(handlers::openapi_json))
         .route("/metrics", get(handlers::metrics))
         .merge(ogc::routes())
         .merge(page::routes())
@@ -284,6 +345,10 @@ pub fn router(state: AppState) -> Router {
         .layer(DefaultBodyLimit::disable())
         .layer(inner)
         .layer(outer)
+        .layer(middleware::from_fn_with_state(
+            state.clone(),
+            auth::authenticate,
+        ))
         .layer(middleware::from_fn(problem_for_bare_errors))
         .layer(middleware::from_fn_with_state(state.clone(), track_metrics))
         .with_state(state)

@@ -5,7 +5,7 @@
 use axum::body::Body;
 use axum::http::{header, Request};
 use serde_json::Value;
-use spherefit::service::{router, AppState, ServiceConfig, OPENAPI_YAML};
+use spherefit::service::{router, AppState, ServiceConfig, OPENAPI_JSON, OPENAPI_YAML};
 use tower::ServiceExt;
 use yaml_rust2::{Yaml, YamlLoader};
 
@@ -286,4 +286,22 @@ async fn the_served_contract_is_the_file() {
     let file =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/openapi.yaml")).unwrap();
     assert_eq!(String::from_utf8(body).unwrap(), file);
+}
+
+/// `/openapi.json` (made by build.rs) is `openapi.yaml`, value for value: read here with this
+/// test's own YAML-to-JSON reading, independent of the build script's writer.
+#[tokio::test]
+async fn the_json_contract_is_the_yaml_file() {
+    let (status, ct, body) = call("GET", "/openapi.json", None, vec![]).await;
+    assert_eq!(status, 200);
+    assert_eq!(ct, "application/vnd.oai.openapi+json;version=3.0");
+    assert_eq!(body, OPENAPI_JSON.as_bytes());
+    let served: Value = serde_json::from_slice(&body).expect("/openapi.json is JSON");
+    let file =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/openapi.yaml")).unwrap();
+    let docs = YamlLoader::load_from_str(&file).expect("openapi.yaml parses");
+    assert_eq!(served, to_json(&docs[0]));
+    // The key order is the file's (paths read in the order they are written).
+    let at = |p: &str| OPENAPI_JSON.find(&format!("\"{p}\":{{")).unwrap();
+    assert!(at("/v1/fit") < at("/v1/interpolate") && at("/openapi.yaml") < at("/openapi.json"));
 }

@@ -8,7 +8,9 @@ use axum::body::Body;
 use axum::http::{header, Request, StatusCode};
 use axum::Router;
 use serde_json::{json, Value};
-use spherefit::service::{router, AppState, ServiceConfig};
+use spherefit::service::{
+    router, AppState, ServiceConfig, OPENAPI_JSON, OPENAPI_JSON_TYPE, OPENAPI_YAML,
+};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use tower::ServiceExt;
@@ -235,6 +237,48 @@ async fn landing_page_and_conformance() {
     for c in CONFORMANCE {
         assert!(classes.as_array().unwrap().iter().any(|x| x == c), "{c}");
     }
+}
+
+/// The landing page's `service-desc` is the API definition as JSON, of the media type QGIS 3.22
+/// looks for (it cannot read YAML and the layer would be invalid), followed as QGIS follows it;
+/// the hand-written YAML stays linked as the alternate. Both answer the same document.
+#[tokio::test]
+async fn service_desc_is_the_json_api_definition() {
+    let dir = DataDir::new("service-desc");
+    let app = router(AppState::new(dir.config()));
+    let landing = send(&app, "GET", "/", &[("accept", "application/json")], vec![]).await;
+    let links = landing.json()["links"].as_array().unwrap().clone();
+    let descs: Vec<(&str, &str)> = links
+        .iter()
+        .filter(|l| l["rel"] == "service-desc")
+        .map(|l| (l["type"].as_str().unwrap(), l["href"].as_str().unwrap()))
+        .collect();
+    assert_eq!(
+        descs,
+        [
+            (
+                "application/vnd.oai.openapi+json;version=3.0",
+                "http://127.0.0.1:9/openapi.json"
+            ),
+            (
+                "application/vnd.oai.openapi;version=3.0",
+                "http://127.0.0.1:9/openapi.yaml"
+            ),
+        ]
+    );
+    assert_eq!(OPENAPI_JSON_TYPE, descs[0].0);
+    let accept = [("accept", "application/vnd.oai.openapi+json;version=3.0")];
+    let r = send(&app, "GET", "/openapi.json", &accept, vec![]).await;
+    assert_eq!(r.status, 200);
+    assert_eq!(r.header("content-type"), OPENAPI_JSON_TYPE);
+    let served = r.json();
+    assert_eq!(served["openapi"], "3.1.0");
+    assert!(served["paths"]["/collections/{collectionId}/items"]["get"].is_object());
+    assert_eq!(r.body, OPENAPI_JSON.as_bytes());
+    let yaml = get(&app, "/openapi.yaml").await;
+    assert_eq!(yaml.status, 200);
+    assert_eq!(yaml.header("content-type"), "application/yaml");
+    assert_eq!(yaml.body, OPENAPI_YAML.as_bytes());
 }
 
 /// Processes core and OGC process description: the list, each description (inputs generated
@@ -722,4 +766,270 @@ async fn too_many_jobs_and_the_job_time_budget() {
     // Its place is free again.
     let next = submit(&app, "fit", &json!({"inputs": {"data": lines(1)}})).await;
     assert_eq!(wait(&app, &next).await["status"], "successful");
+}
+
+/// A data directory that cannot be written (here: under a regular file, which even root cannot
+/// make a directory in) answers 503 `store-unavailable`, not `store-full`, and `serve` says so
+/// in its start-up log; synchronous execution still works.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_unwritable_data_dir_is_store_unavailable() {
+    let dir = DataDir::new("unwritable");
+    std::fs::create_dir_all(&dir.0).unwrap();
+    let file = dir.0.join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let bad = file.join("data");
+    let app = router(AppState::new(ServiceConfig {
+        data_dir: Some(bad.clone()),
+        ..ServiceConfig::default()
+    }));
+    let body = json!({"inputs": {"data": lines(1), "tolerance_m": 100}});
+    let r = execute(&app, "fit", &body, true).await;
+    let p = r.problem(503, "store-unavailable");
+    assert_eq!(p["title"], "Job store unavailable");
+    assert!(r.header("retry-after").parse::<u32>().unwrap() > 0, "{p}");
+    assert_eq!(execute(&app, "fit", &body, false).await.status, 200);
+    // The binary, started on it, says so before any request.
+    let out = super::helpers::run_spherefit(
+        &[
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--data-dir",
+            bad.to_str().unwrap(),
+            "--exit-after-s",
+            "0.2",
+            "--log-format",
+            "text",
+        ],
+        None,
+    );
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{log}");
+    assert!(
+        log.contains("the job store cannot be written") && log.contains("store-unavailable"),
+        "{log}"
+    );
+}
+
+/// A key file of two owners: `printf %s alice-token | sha256sum`, and bob's.
+const KEYS: &str = "# owners of the tests\nalice:9c220f200955d76c0a38d308225e0ef10c5f971acaf2f8d1d8f732affa5bd1dc\nbob:97dd3707015dcf069cf73022ed7173b1165db6eff24b441cb57fd069a8c4e525\n";
+
+fn keyed(dir: &DataDir) -> ServiceConfig {
+    ServiceConfig {
+        api_keys: Some(spherefit::service::auth::ApiKeys::parse(KEYS).unwrap()),
+        ..dir.config()
+    }
+}
+
+fn bearer(token: &str) -> String {
+    format!("Bearer {token}")
+}
+
+/// With a key file every route but `/health` and the page's files needs a bearer token: none
+/// gives 401 with `WWW-Authenticate: Bearer`, a wrong one 401 as well, saying no more.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn api_keys_guard_every_route_but_health_and_the_page_files() {
+    let dir = DataDir::new("keys");
+    let app = router(AppState::new(keyed(&dir)));
+    assert_eq!(get(&app, "/health").await.status, 200);
+    for asset in ["/page/app.js", "/page/style.css"] {
+        assert_eq!(get(&app, asset).await.status, 200, "{asset} is open");
+    }
+    for path in [
+        "/",
+        "/?f=json",
+        "/openapi.yaml",
+        "/metrics",
+        "/conformance",
+        "/processes",
+        "/jobs",
+        "/collections",
+        "/v1/limits",
+        "/no-such-path",
+    ] {
+        let r = get(&app, path).await;
+        let p = r.problem(401, "unauthorized");
+        assert!(r.header("www-authenticate").starts_with("Bearer"), "{path}");
+        assert!(p["detail"].as_str().unwrap().contains("Bearer"), "{p}");
+        let wrong = send(
+            &app,
+            "GET",
+            path,
+            &[("authorization", "Bearer nope")],
+            vec![],
+        )
+        .await;
+        let pw = wrong.problem(401, "unauthorized");
+        assert!(wrong.header("www-authenticate").starts_with("Bearer"));
+        let basic = send(
+            &app,
+            "GET",
+            path,
+            &[("authorization", "Basic YWxpY2U6eA==")],
+            vec![],
+        )
+        .await;
+        assert_eq!(basic.problem(401, "unauthorized")["detail"], pw["detail"]);
+        // A token of one owner with junk around it is wrong, and says so the same way.
+        let junk = send(
+            &app,
+            "GET",
+            path,
+            &[("authorization", "Bearer alice-token2")],
+            vec![],
+        )
+        .await;
+        assert_eq!(junk.problem(401, "unauthorized")["detail"], pw["detail"]);
+    }
+    let h = bearer("alice-token");
+    let r = send(&app, "GET", "/processes", &[("authorization", &h)], vec![]).await;
+    assert_eq!(r.status, 200);
+    let r = send(
+        &app,
+        "POST",
+        "/v1/fit",
+        &[
+            ("authorization", "Bearer x"),
+            ("content-type", "application/geo+json"),
+        ],
+        serde_json::to_vec(&lines(1)).unwrap(),
+    )
+    .await;
+    r.problem(401, "unauthorized");
+}
+
+/// Each job belongs to its token's owner: another owner's job, result and collection answer
+/// 404 as if absent, lists hold the caller's only, and each owner has its own bound on
+/// unfinished jobs (429 with Retry-After).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn owners_see_only_their_own_jobs() {
+    let dir = DataDir::new("owners");
+    let app = router(AppState::new(ServiceConfig {
+        max_owner_jobs: 1,
+        ..keyed(&dir)
+    }));
+    let (alice, bob) = (bearer("alice-token"), bearer("bob-token"));
+    let post = |who: &str, body: &Value| {
+        let who = who.to_string();
+        let body = serde_json::to_vec(body).unwrap();
+        let app = app.clone();
+        async move {
+            send(
+                &app,
+                "POST",
+                "/processes/fit/execution",
+                &[
+                    ("authorization", who.as_str()),
+                    ("content-type", "application/json"),
+                    ("prefer", "respond-async"),
+                ],
+                body,
+            )
+            .await
+        }
+    };
+    let r = post(
+        &alice,
+        &json!({"inputs": {"data": lines(2), "tolerance_m": 100}}),
+    )
+    .await;
+    assert_eq!(r.status, 201, "{}", String::from_utf8_lossy(&r.body));
+    let id = r.json()["jobID"].as_str().unwrap().to_string();
+    let as_of = |who: &str, path: String| {
+        let (who, app) = (who.to_string(), app.clone());
+        async move {
+            send(
+                &app,
+                "GET",
+                &path,
+                &[("authorization", who.as_str())],
+                vec![],
+            )
+            .await
+        }
+    };
+    let start = Instant::now();
+    loop {
+        let v = as_of(&alice, format!("/jobs/{id}")).await.json();
+        if v["status"] == "successful" {
+            break;
+        }
+        assert!(v["status"] != "failed", "{v}");
+        assert!(start.elapsed() < Duration::from_secs(60));
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    for path in [
+        format!("/jobs/{id}"),
+        format!("/jobs/{id}/results"),
+        format!("/collections/{id}"),
+        format!("/collections/{id}/items"),
+        format!("/collections/{id}/items/0"),
+    ] {
+        as_of(&bob, path.clone()).await.problem(404, "not-found");
+        assert_eq!(as_of(&alice, path.clone()).await.status, 200, "{path}");
+    }
+    assert_eq!(as_of(&bob, "/jobs".into()).await.json()["jobs"], json!([]));
+    assert_eq!(
+        as_of(&bob, "/collections".into()).await.json()["collections"],
+        json!([])
+    );
+    assert_eq!(
+        as_of(&alice, "/jobs".into()).await.json()["jobs"][0]["jobID"],
+        id.as_str()
+    );
+    let r = send(
+        &app,
+        "DELETE",
+        &format!("/jobs/{id}"),
+        &[("authorization", &bob)],
+        vec![],
+    )
+    .await;
+    r.problem(404, "not-found");
+    // Bob cannot use alice's result as his input either.
+    let href = json!({"inputs": {"data": {"href": format!("/jobs/{id}/results")}}});
+    post(&bob, &href).await.problem(422, "invalid-reference");
+    // One unfinished job each: alice's second waits on a slow one; bob still gets in.
+    let slow = post(&alice, &heavy()).await;
+    assert_eq!(slow.status, 201, "{}", String::from_utf8_lossy(&slow.body));
+    let slow_id = slow.json()["jobID"].as_str().unwrap().to_string();
+    let r = post(&alice, &json!({"inputs": {"data": lines(1)}})).await;
+    let p = r.problem(429, "too-many-jobs");
+    assert!(r.header("retry-after").parse::<u32>().unwrap() > 0, "{p}");
+    assert_eq!(
+        post(&bob, &json!({"inputs": {"data": lines(1)}}))
+            .await
+            .status,
+        201
+    );
+    let r = send(
+        &app,
+        "DELETE",
+        &format!("/jobs/{slow_id}"),
+        &[("authorization", &alice)],
+        vec![],
+    )
+    .await;
+    assert_eq!(r.status, 200);
+    // Alice's job is there after a restart, still hers alone.
+    drop(app);
+    let app = router(AppState::new(keyed(&dir)));
+    let r = send(
+        &app,
+        "GET",
+        &format!("/jobs/{id}"),
+        &[("authorization", &alice)],
+        vec![],
+    )
+    .await;
+    assert_eq!(r.json()["status"], "successful");
+    let r = send(
+        &app,
+        "GET",
+        &format!("/jobs/{id}"),
+        &[("authorization", &bob)],
+        vec![],
+    )
+    .await;
+    assert_eq!(r.status, 404);
 }

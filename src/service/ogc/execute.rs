@@ -13,24 +13,26 @@
 //! description gives, or `{"value": …}`) and checked by [`into_job`], so a 422 names the same
 //! option, with a pointer into the execute request.
 
-use crate::earth::into_job;
-use crate::earth::job::{Job, OptionType, RawOptions};
-use crate::service::error::ApiError;
-use crate::service::handlers::{geo_run, output_media_type, parse_json, respond, Progress, JSON};
-use crate::service::ogc::jobs::status_info;
-use crate::service::ogc::processes::process;
-use crate::service::ogc::store::{is_job_id, JobStore, Refusal, Status};
-use crate::service::ogc::{base_url, json_response};
+use crate::service::auth::Owner;
+use crate::service::handlers::{JSON, Progress, geo_run, output_media_type, parse_json, respond};
 use crate::service::query::{GeoEndpoint, Params};
 use crate::service::request::PostRequest;
-use crate::service::{AppState, ServiceConfig};
+use crate::service::{AppState, ServiceConfig, Slot};
+use crate::service::error::ApiError;
+use crate::service::ogc::jobs::status_info;
+use crate::service::ogc::postgres::{Claim, PgStore};
+use crate::service::ogc::processes::process;
+use crate::service::ogc::store::{JobStore, Status, is_job_id};
+use crate::service::ogc::{base_url, json_response};
+use crate::earth::into_job;
+use crate::earth::job::{Job, OptionType, RawOptions};
 use crate::sphere::cancel::Cancel;
-use axum::extract::{Path, State};
+use axum::extract::{Extension, Path, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::Response;
 use serde_json::{json, Value};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// A checked execute request.
 #[derive(Debug)]
@@ -39,6 +41,15 @@ pub(crate) struct Execution {
     pub data: Value,
     /// `"response": "document"`: the output wrapped as `{"result": …}`.
     pub document: bool,
+    /// `data` was read from a job result (`{"href": …}`).
+    pub from_reference: bool,
+}
+
+/// Where `{"href": …}` references are read: the caller's jobs in the store, or nowhere (a
+/// stored job's request, whose references were resolved when it was posted).
+pub(crate) struct References<'a> {
+    pub store: Option<&'a JobStore>,
+    pub owner: &'a Owner,
 }
 
 fn invalid(pointer: impl Into<String>, detail: impl Into<String>) -> ApiError {
@@ -91,7 +102,7 @@ pub(crate) fn read_execution(
     bytes: &[u8],
     endpoint: GeoEndpoint,
     config: &ServiceConfig,
-    store: &JobStore,
+    refs: &References<'_>,
     base: &str,
 ) -> Result<Execution, ApiError> {
     let mut request = match parse_json(bytes)? {
@@ -162,11 +173,12 @@ pub(crate) fn read_execution(
             _ => e,
         }
     })?;
-    let data = resolve_data(data, config, store, base)?;
+    let (data, from_reference) = resolve_data(data, config, refs, base)?;
     Ok(Execution {
         job,
         data,
         document,
+        from_reference,
     })
 }
 
@@ -179,9 +191,9 @@ pub(crate) fn read_execution(
 fn resolve_data(
     data: Value,
     config: &ServiceConfig,
-    store: &JobStore,
+    refs: &References<'_>,
     base: &str,
-) -> Result<Value, ApiError> {
+) -> Result<(Value, bool), ApiError> {
     let Value::Object(mut o) = data else {
         return Err(invalid(
             "/inputs/data",
@@ -190,16 +202,16 @@ fn resolve_data(
     };
     if !o.contains_key("type") {
         if let Some(v) = o.remove("value") {
-            return Ok(v);
+            return Ok((v, false));
         }
         if let Some(href) = o.get("href") {
             let href = href
                 .as_str()
                 .ok_or_else(|| invalid("/inputs/data/href", "href must be a string"))?;
-            return read_reference(href, config, store, base);
+            return read_reference(href, config, refs, base).map(|v| (v, true));
         }
     }
-    Ok(Value::Object(o))
+    Ok((Value::Object(o), false))
 }
 
 fn bad_reference(detail: String) -> ApiError {
@@ -209,7 +221,7 @@ fn bad_reference(detail: String) -> ApiError {
 fn read_reference(
     href: &str,
     config: &ServiceConfig,
-    store: &JobStore,
+    refs: &References<'_>,
     base: &str,
 ) -> Result<Value, ApiError> {
     let path = if let Some(rest) = href
@@ -236,11 +248,17 @@ fn read_reference(
                 "{href:?} is not a job result here: give …/jobs/{{jobId}}/results"
             ))
         })?;
-    let record = store.get(id).ok_or_else(|| {
+    let Some(store) = refs.store else {
+        return Err(bad_reference(format!(
+            "{href:?} was not resolved when the job was posted"
+        )));
+    };
+    let gone = || {
         bad_reference(format!(
             "there is no job {id} (it may have expired or been dismissed)"
         ))
-    })?;
+    };
+    let record = store.get_blocking(refs.owner, id)?.ok_or_else(gone)?;
     if record.status != Status::Successful
         || record.media_type.as_deref() != Some(super::super::handlers::GEO_JSON)
     {
@@ -252,65 +270,48 @@ fn read_reference(
     if record.result_bytes > config.max_body_bytes as u64 {
         return Err(ApiError::body_too_large(config.max_body_bytes).at("/inputs/data/href"));
     }
-    let bytes = std::fs::read(store.result_path(id)).map_err(|e| {
-        tracing::warn!(job = %id, error = %e, "cannot read a job result");
+    let bytes = store.result_blocking(refs.owner, id)?.ok_or_else(|| {
+        tracing::warn!(job = %id, "cannot read a job result");
         bad_reference(format!("the result of job {id} cannot be read"))
     })?;
     parse_json(&bytes).map_err(|_| bad_reference(format!("the result of job {id} is not JSON")))
 }
 
-/// The `201`/`429`/`503` for a refused job.
-fn refusal(r: Refusal) -> ApiError {
-    match r {
-        Refusal::TooManyJobs(n) => {
-            let mut e = ApiError::new(
-                StatusCode::TOO_MANY_REQUESTS,
-                "too-many-jobs",
-                format!("{n} jobs are waiting or running, as many as this server runs at once: retry after the time in Retry-After, or dismiss a job"),
-            );
-            e.retry_after_s = Some(5);
-            e
-        }
-        Refusal::Full { used, budget } => {
-            let mut e = ApiError::new(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "store-full",
-                format!("the job store holds {used} of its {budget} bytes: dismiss finished jobs, or retry once old ones expire"),
-            );
-            e.retry_after_s = Some(60);
-            e
-        }
-        Refusal::Unavailable(why) => {
-            tracing::error!(error = %why, "the job store cannot be written");
-            let mut e = ApiError::new(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "store-full",
-                "the job store cannot be written at the moment",
-            );
-            e.retry_after_s = Some(60);
-            e
-        }
+/// The request stored for a PostgreSQL job: the execute request as posted, or, when its data
+/// was a reference, with the data read in its place (as `{"value": …}`, so that it is read
+/// back as it is), since the replica that runs it reads no references.
+fn stored_request(bytes: &[u8], x: &Execution) -> Result<Vec<u8>, ApiError> {
+    if !x.from_reference {
+        return Ok(bytes.to_vec());
     }
+    let mut v = parse_json(bytes)?;
+    v["inputs"]["data"] = json!({ "value": x.data });
+    serde_json::to_vec(&v).map_err(|_| ApiError::internal())
 }
 
 const ROUTE: &str = "/processes/{id}/execution";
 
 pub(super) async fn execute(
     State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
     headers: HeaderMap,
     req: PostRequest,
 ) -> Result<Response, ApiError> {
     let asynchronous = prefers_async(&headers);
     let store = state.jobs.clone();
+    // Asked before the body is read (and answered after the request's own checks).
+    let refused = if asynchronous {
+        store.refusal(&owner).await
+    } else {
+        None
+    };
     let (endpoint, accepted) = req
         .accept(&[JSON], |pairs| {
             let endpoint = process(&id)?;
             Params::new(pairs, &[])?;
-            if asynchronous {
-                if let Some(r) = store.refusal() {
-                    return Err(refusal(r));
-                }
+            if let Some(r) = refused {
+                return Err(r.into());
             }
             Ok(endpoint)
         })
@@ -320,7 +321,11 @@ pub(super) async fn execute(
     if !asynchronous {
         let (body, media_type) = accepted
             .run(ROUTE, move |bytes, cancel| {
-                let x = read_execution(bytes, endpoint, &config, &store, &base)?;
+                let refs = References {
+                    store: Some(&store),
+                    owner: &owner,
+                };
+                let x = read_execution(bytes, endpoint, &config, &refs, &base)?;
                 let media_type = output_media_type(x.job.format);
                 let (out, points, curves) = geo_run(
                     x.data,
@@ -347,32 +352,56 @@ pub(super) async fn execute(
     }
     // Asynchronous: check the request now (on the blocking pool, as all parsing), then answer.
     let held = accepted.into_body();
-    let checked = {
-        let (config, store, base) = (config.clone(), store.clone(), base.clone());
+    let postgres = matches!(&*store, JobStore::Postgres(_));
+    let (checked, stored) = {
+        let (config, store, base, owner) =
+            (config.clone(), store.clone(), base.clone(), owner.clone());
         tokio::task::spawn_blocking(move || {
-            let r = read_execution(&held.bytes, endpoint, &config, &store, &base);
+            let refs = References {
+                store: Some(&store),
+                owner: &owner,
+            };
+            let x = read_execution(&held.bytes, endpoint, &config, &refs, &base)?;
+            let stored = if postgres {
+                Some(stored_request(&held.bytes, &x)?)
+            } else {
+                None
+            };
             drop(held);
-            r
+            Ok::<_, ApiError>((x, stored))
         })
         .await
         .map_err(|_| ApiError::internal())??
     };
-    let deadline = Instant::now() + config.job_timeout;
-    let cancel = Cancel::with_deadline(deadline);
-    let progress = Arc::new(Progress::default());
-    let record = store
-        .create(endpoint.kind().name(), cancel.clone(), progress.clone())
-        .map_err(refusal)?;
+    let record = match (&*store, stored) {
+        (JobStore::Postgres(pg), Some(input)) => {
+            drop(checked);
+            pg.enqueue(&owner, endpoint.kind().name(), &input).await?
+        }
+        (JobStore::Disk(disk), _) => {
+            let deadline = Instant::now() + config.job_timeout;
+            let cancel = Cancel::with_deadline(deadline);
+            let progress = Arc::new(Progress::default());
+            let record = disk.create(
+                &owner,
+                endpoint.kind().name(),
+                cancel.clone(),
+                progress.clone(),
+            )?;
+            tokio::spawn(run_job(
+                state.clone(),
+                record.id.clone(),
+                endpoint,
+                checked,
+                cancel,
+                progress,
+                deadline,
+            ));
+            record
+        }
+        (JobStore::Postgres(_), None) => return Err(ApiError::internal()),
+    };
     let job_id = record.id.clone();
-    tokio::spawn(run_job(
-        state.clone(),
-        job_id.clone(),
-        endpoint,
-        checked,
-        cancel,
-        progress,
-        deadline,
-    ));
     let mut res = json_response(StatusCode::CREATED, &status_info(&base, &record), JSON);
     let location = format!("{base}/jobs/{job_id}");
     if let Ok(v) = HeaderValue::from_str(&location) {
@@ -385,8 +414,69 @@ pub(super) async fn execute(
     Ok(res)
 }
 
-/// A job's work: waits for a fitting slot (sharing them with requests), runs, and stores the
-/// result or the reason it failed.
+/// How a job's work ended.
+enum Outcome {
+    Done {
+        bytes: Vec<u8>,
+        media_type: &'static str,
+        points: usize,
+        curves: usize,
+    },
+    Failed(String),
+}
+
+/// The message of a job past its time budget.
+fn over_budget(config: &ServiceConfig) -> String {
+    format!(
+        "the job ran past its time budget of {} s (--job-timeout-s): send less work or fit with a larger tolerance",
+        config.job_timeout.as_secs_f64()
+    )
+}
+
+/// Runs a job's work holding `slot`, on the blocking pool.
+async fn work(
+    state: &AppState,
+    slot: Slot,
+    endpoint: GeoEndpoint,
+    x: Execution,
+    cancel: Cancel,
+    progress: Arc<Progress>,
+) -> Outcome {
+    let config = state.config.clone();
+    let metrics = state.metrics.clone();
+    let work = tokio::task::spawn_blocking(move || {
+        let _slot = slot;
+        let t0 = Instant::now();
+        let media_type = output_media_type(x.job.format);
+        match geo_run(x.data, endpoint, x.job, &config, &cancel, &progress) {
+            Ok((bytes, points, curves)) => {
+                metrics.record_fit(ROUTE, t0.elapsed().as_secs_f64(), points, curves);
+                Outcome::Done {
+                    bytes,
+                    media_type,
+                    points,
+                    curves,
+                }
+            }
+            Err(_) if cancel.is_cancelled() => Outcome::Failed(over_budget(&config)),
+            Err(e) => {
+                let at = e
+                    .pointer
+                    .as_deref()
+                    .map(|p| format!(" (at {p:?} of the data)"))
+                    .unwrap_or_default();
+                Outcome::Failed(format!("{}: {}{at}", e.slug, e.detail))
+            }
+        }
+    });
+    work.await.unwrap_or_else(|e| {
+        tracing::error!(error = %e, "job work failed");
+        Outcome::Failed("internal: an unexpected error occurred; it has been logged".into())
+    })
+}
+
+/// A disk-store job's work: waits for a fitting slot (sharing them with requests), runs, and
+/// stores the result or the reason it failed.
 async fn run_job(
     state: AppState,
     id: String,
@@ -396,60 +486,186 @@ async fn run_job(
     progress: Arc<Progress>,
     deadline: Instant,
 ) {
-    let store = state.jobs.clone();
-    let budget_s = state.config.job_timeout.as_secs_f64();
-    let over_budget = move || {
-        format!("the job ran past its time budget of {budget_s} s (--job-timeout-s): send less work or fit with a larger tolerance")
+    let JobStore::Disk(store) = &*state.jobs else {
+        return;
     };
+    let store = store.clone();
     // The fitting slots are shared with requests: a full queue means waiting, not failing.
     let slot = loop {
         if cancel.is_cancelled() {
-            store.fail(&id, over_budget());
+            store.fail(&id, over_budget(&state.config));
             return;
         }
         match state.enter(deadline).await {
             Ok(s) => break s,
             Err(e) if e.slug == "overloaded" => {
-                tokio::time::sleep(std::time::Duration::from_millis(200)).await
+                tokio::time::sleep(Duration::from_millis(200)).await
             }
             Err(_) => {
-                store.fail(&id, over_budget());
+                store.fail(&id, over_budget(&state.config));
                 return;
             }
         }
     };
     store.start(&id);
-    let config = state.config.clone();
-    let metrics = state.metrics.clone();
-    let work_store = store.clone();
-    let work_id = id.clone();
-    let work = tokio::task::spawn_blocking(move || {
-        let _slot = slot;
-        let t0 = Instant::now();
-        let media_type = output_media_type(x.job.format);
-        let r = geo_run(x.data, endpoint, x.job, &config, &cancel, &progress);
-        match r {
-            Ok((bytes, points, curves)) => {
-                metrics.record_fit(ROUTE, t0.elapsed().as_secs_f64(), points, curves);
-                work_store.succeed(&work_id, &bytes, media_type, points, curves);
+    let outcome = work(&state, slot, endpoint, x, cancel, progress).await;
+    // Writing a result is file-system work: off the async workers.
+    let _ = tokio::task::spawn_blocking(move || match outcome {
+        Outcome::Done {
+            bytes,
+            media_type,
+            points,
+            curves,
+        } => store.succeed(&id, &bytes, media_type, points, curves),
+        Outcome::Failed(why) => store.fail(&id, why),
+    })
+    .await;
+}
+
+/// How long an idle PostgreSQL worker waits before it looks for work again (a job posted to
+/// this replica wakes it at once; one posted to another replica, or a lease that ran out, is
+/// seen within this time).
+pub(crate) const POLL: Duration = Duration::from_millis(200);
+
+/// Starts this replica's PostgreSQL worker (nothing for the disk store): whenever a fitting
+/// slot is free it claims the oldest waiting job (or one whose lease ran out) and runs it
+/// ([`run_claimed`]).
+pub(crate) fn start_worker(state: &AppState) {
+    if matches!(&*state.jobs, JobStore::Postgres(_)) {
+        tokio::spawn(worker(state.clone()));
+    }
+}
+
+async fn worker(state: AppState) {
+    let JobStore::Postgres(pg) = &*state.jobs else {
+        return;
+    };
+    let mut failing = false;
+    loop {
+        let Some(slot) = state.free_slot().await else {
+            return;
+        };
+        match pg.claim().await {
+            Ok(Some(claim)) => {
+                if failing {
+                    tracing::info!("the job store is reachable again");
+                    failing = false;
+                }
+                tokio::spawn(run_claimed(state.clone(), slot, claim));
+                continue;
             }
-            Err(_) if cancel.is_cancelled() => work_store.fail(&work_id, over_budget()),
-            Err(e) => {
-                let at = e
-                    .pointer
-                    .as_deref()
-                    .map(|p| format!(" (at {p:?} of the data)"))
-                    .unwrap_or_default();
-                work_store.fail(&work_id, format!("{}: {}{at}", e.slug, e.detail));
+            Ok(None) => {
+                drop(slot);
+                failing = false;
+            }
+            Err(why) => {
+                drop(slot);
+                if !failing {
+                    tracing::warn!(error = %why, "the job store cannot be reached: no job is taken until it can");
+                    failing = true;
+                }
             }
         }
-    });
-    if let Err(e) = work.await {
-        tracing::error!(job = %id, error = %e, "job work failed");
-        store.fail(
-            &id,
-            "internal: an unexpected error occurred; it has been logged".into(),
-        );
+        pg.wait_for_work(POLL).await;
+    }
+}
+
+/// Runs a job this replica claimed: renews the claim while it runs (cancelling the work when
+/// the job was dismissed or another replica took it), then stores the outcome (kept only while
+/// the claim is this replica's).
+async fn run_claimed(state: AppState, slot: Slot, claim: Claim) {
+    let JobStore::Postgres(pg) = &*state.jobs else {
+        return;
+    };
+    let config = state.config.clone();
+    let deadline = Instant::now() + config.job_timeout;
+    let cancel = Cancel::with_deadline(deadline);
+    let progress = Arc::new(Progress::default());
+    let outcome = match prepare(&config, &claim).await {
+        Err(why) => {
+            drop(slot);
+            Outcome::Failed(why)
+        }
+        Ok((endpoint, x)) => {
+            let beat = tokio::spawn(heartbeat(
+                pg.clone(),
+                claim.id.clone(),
+                progress.clone(),
+                cancel.clone(),
+                config.job_lease,
+            ));
+            let outcome = work(&state, slot, endpoint, x, cancel, progress).await;
+            beat.abort();
+            outcome
+        }
+    };
+    // The outcome is written even if the database is away for a moment: a few tries, then
+    // the lease runs out and another replica runs the job again.
+    for attempt in 0..5u32 {
+        let written = match &outcome {
+            Outcome::Done {
+                bytes,
+                media_type,
+                points,
+                curves,
+            } => {
+                pg.succeed(&claim.id, bytes, media_type, *points, *curves)
+                    .await
+            }
+            Outcome::Failed(why) => pg.fail(&claim.id, why).await,
+        };
+        match written {
+            Ok(()) => return,
+            Err(why) => {
+                tracing::warn!(job = %claim.id, attempt, error = %why, "cannot store a job's outcome");
+                tokio::time::sleep(Duration::from_secs(1)).await;
+            }
+        }
+    }
+}
+
+/// A claimed job's process and checked request.
+async fn prepare(
+    config: &Arc<ServiceConfig>,
+    claim: &Claim,
+) -> Result<(GeoEndpoint, Execution), String> {
+    let endpoint = process(&claim.process).map_err(|e| e.detail)?;
+    let (config, input) = (config.clone(), claim.input.clone());
+    tokio::task::spawn_blocking(move || {
+        let owner = Owner::anonymous();
+        let refs = References {
+            store: None,
+            owner: &owner,
+        };
+        read_execution(&input, endpoint, &config, &refs, "")
+            .map(|x| (endpoint, x))
+            .map_err(|e| format!("{}: {}", e.slug, e.detail))
+    })
+    .await
+    .map_err(|e| format!("internal: {e}"))?
+}
+
+/// Renews a running job's lease (and writes its progress) until aborted; cancels the work
+/// when the job is no longer this replica's (dismissed, or taken over after a lapse).
+async fn heartbeat(
+    pg: PgStore,
+    id: String,
+    progress: Arc<Progress>,
+    cancel: Cancel,
+    lease: Duration,
+) {
+    let every = (lease / 4).clamp(Duration::from_millis(50), Duration::from_secs(2));
+    loop {
+        tokio::time::sleep(every).await;
+        match pg.renew(&id, progress.percent().min(99)).await {
+            Ok(true) => {}
+            Ok(false) => {
+                tracing::info!(job = %id, "job dismissed or taken over: its work is cancelled");
+                cancel.cancel();
+                return;
+            }
+            Err(why) => tracing::warn!(job = %id, error = %why, "cannot renew a job's lease"),
+        }
     }
 }
 
@@ -459,12 +675,17 @@ mod tests {
 
     fn read(body: Value) -> Result<Execution, ApiError> {
         let config = ServiceConfig::default();
-        let store = JobStore::open(&config);
+        let store = JobStore::Disk(super::super::DiskStore::open(&config));
+        let owner = Owner::anonymous();
+        let refs = References {
+            store: Some(&store),
+            owner: &owner,
+        };
         read_execution(
             &serde_json::to_vec(&body).unwrap(),
             GeoEndpoint::Fit,
             &config,
-            &store,
+            &refs,
             "http://h:1",
         )
     }

@@ -9,14 +9,15 @@
 //! nothing). The parsed result of the
 //! last collection read is kept ([`CACHE`]) so that paging through it does not parse it again.
 
+use crate::service::auth::Owner;
+use crate::service::handlers::{GEO_JSON, JSON, parse_json, respond};
+use crate::service::query::Params;
+use crate::service::AppState;
 use crate::service::error::ApiError;
-use crate::service::handlers::{parse_json, respond, GEO_JSON, JSON};
 use crate::service::ogc::jobs::{find, result_bytes};
 use crate::service::ogc::store::{JobRecord, Status};
 use crate::service::ogc::{base_url, json_response, link};
-use crate::service::query::Params;
-use crate::service::AppState;
-use axum::extract::{Path, Query, State};
+use axum::extract::{Extension, Path, Query, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::Response;
 use serde_json::{json, Value};
@@ -62,19 +63,25 @@ fn no_collection(id: &str) -> ApiError {
     e
 }
 
-/// The job behind collection `id`.
-fn collection_job(state: &AppState, id: &str) -> Result<JobRecord, ApiError> {
-    find(state, id)
-        .ok()
-        .filter(is_collection)
-        .ok_or_else(|| no_collection(id))
+/// `owner`'s job behind collection `id`.
+async fn collection_job(state: &AppState, owner: &Owner, id: &str) -> Result<JobRecord, ApiError> {
+    match find(state, owner, id).await {
+        Ok(r) if is_collection(&r) => Ok(r),
+        Err(e) if e.slug == "store-unavailable" => Err(e),
+        _ => Err(no_collection(id)),
+    }
 }
 
-pub(super) async fn collections(State(state): State<AppState>, headers: HeaderMap) -> Response {
+pub(super) async fn collections(
+    State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
+    headers: HeaderMap,
+) -> Result<Response, ApiError> {
     let b = base_url(&headers);
     let list: Vec<Value> = state
         .jobs
-        .list()
+        .list(&owner)
+        .await?
         .iter()
         .filter(|r| is_collection(r))
         .map(|r| collection_info(&b, r))
@@ -83,15 +90,16 @@ pub(super) async fn collections(State(state): State<AppState>, headers: HeaderMa
         "collections": list,
         "links": [link(format!("{b}/collections"), "self", JSON, "collections")],
     });
-    json_response(StatusCode::OK, &body, JSON)
+    Ok(json_response(StatusCode::OK, &body, JSON))
 }
 
 pub(super) async fn collection(
     State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let r = collection_job(&state, &id)?;
+    let r = collection_job(&state, &owner, &id).await?;
     Ok(json_response(
         StatusCode::OK,
         &collection_info(&base_url(&headers), &r),
@@ -100,14 +108,18 @@ pub(super) async fn collection(
 }
 
 /// The features of collection `id` (parsed off the async workers, or from [`CACHE`]).
-async fn features_of(state: &AppState, id: &str) -> Result<Arc<Vec<Value>>, ApiError> {
-    collection_job(state, id)?;
+async fn features_of(
+    state: &AppState,
+    owner: &Owner,
+    id: &str,
+) -> Result<Arc<Vec<Value>>, ApiError> {
+    collection_job(state, owner, id).await?;
     if let Some((cached, f)) = CACHE.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
         if cached == id {
             return Ok(f.clone());
         }
     }
-    let (bytes, _) = result_bytes(state, id).await?;
+    let (bytes, _) = result_bytes(state, owner, id).await?;
     let features = tokio::task::spawn_blocking(move || -> Result<Vec<Value>, ApiError> {
         let v = parse_json(&bytes).map_err(|_| ApiError::internal())?;
         Ok(match v {
@@ -224,6 +236,7 @@ fn parse_bbox(s: &str) -> Result<[f64; 4], ApiError> {
 
 pub(super) async fn items(
     State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
     Query(pairs): Query<Vec<(String, String)>>,
     headers: HeaderMap,
@@ -249,7 +262,7 @@ pub(super) async fn items(
     let offset = p.int("offset")?.unwrap_or(0);
     let bbox_text = p.get::<String>("bbox", "a box")?;
     let bbox = bbox_text.as_deref().map(parse_bbox).transpose()?;
-    let features = features_of(&state, &id).await?;
+    let features = features_of(&state, &owner, &id).await?;
     let matched: Vec<(usize, &Value)> = features
         .iter()
         .enumerate()
@@ -310,10 +323,11 @@ pub(super) async fn items(
 
 pub(super) async fn item(
     State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
     Path((id, feature)): Path<(String, String)>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let features = features_of(&state, &id).await?;
+    let features = features_of(&state, &owner, &id).await?;
     let (i, f) = features
         .iter()
         .enumerate()

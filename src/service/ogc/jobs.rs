@@ -3,12 +3,13 @@
 //! with its media type, as pygeoapi answers a single output: so that `{"href": …/results}` of a
 //! later execution and plain downloads read the same bytes).
 
-use crate::service::error::ApiError;
-use crate::service::handlers::{respond, GEO_JSON, JSON};
-use crate::service::ogc::store::{is_job_id, JobRecord, Status};
-use crate::service::ogc::{base_url, json_response, link};
+use crate::service::auth::Owner;
+use crate::service::handlers::{GEO_JSON, JSON, respond};
 use crate::service::AppState;
-use axum::extract::{Path, State};
+use crate::service::error::ApiError;
+use crate::service::ogc::store::{JobRecord, Status, is_job_id};
+use crate::service::ogc::{base_url, json_response, link};
+use axum::extract::{Extension, Path, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::Response;
 use serde_json::{json, Value};
@@ -73,22 +74,31 @@ fn no_such_job(id: &str) -> ApiError {
     e
 }
 
-/// The job `id`.
+/// `owner`'s job `id`.
 ///
 /// # Errors
-/// 404 when there is none.
-pub(crate) fn find(state: &AppState, id: &str) -> Result<JobRecord, ApiError> {
+/// 404 when there is none (or it is another owner's); 503 `store-unavailable`.
+pub(crate) async fn find(state: &AppState, owner: &Owner, id: &str) -> Result<JobRecord, ApiError> {
     if !is_job_id(id) {
         return Err(no_such_job(id));
     }
-    state.jobs.get(id).ok_or_else(|| no_such_job(id))
+    state
+        .jobs
+        .get(owner, id)
+        .await?
+        .ok_or_else(|| no_such_job(id))
 }
 
-pub(super) async fn list(State(state): State<AppState>, headers: HeaderMap) -> Response {
+pub(super) async fn list(
+    State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
+    headers: HeaderMap,
+) -> Result<Response, ApiError> {
     let b = base_url(&headers);
     let jobs: Vec<Value> = state
         .jobs
-        .list()
+        .list(&owner)
+        .await?
         .iter()
         .map(|r| status_info(&b, r))
         .collect();
@@ -96,15 +106,16 @@ pub(super) async fn list(State(state): State<AppState>, headers: HeaderMap) -> R
         "jobs": jobs,
         "links": [link(format!("{b}/jobs"), "self", JSON, "jobs")],
     });
-    json_response(StatusCode::OK, &body, JSON)
+    Ok(json_response(StatusCode::OK, &body, JSON))
 }
 
 pub(super) async fn status(
     State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let r = find(&state, &id)?;
+    let r = find(&state, &owner, &id).await?;
     Ok(json_response(
         StatusCode::OK,
         &status_info(&base_url(&headers), &r),
@@ -114,16 +125,17 @@ pub(super) async fn status(
 
 pub(super) async fn dismiss(
     State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    find(&state, &id)?;
-    let store = state.jobs.clone();
-    let job = id.clone();
-    // Deleting a large result is file-system work: off the async workers.
-    let r = tokio::task::spawn_blocking(move || store.dismiss(&job))
-        .await
-        .map_err(|_| ApiError::internal())?
+    if !is_job_id(&id) {
+        return Err(no_such_job(&id));
+    }
+    let r = state
+        .jobs
+        .dismiss(&owner, &id)
+        .await?
         .ok_or_else(|| no_such_job(&id))?;
     Ok(json_response(
         StatusCode::OK,
@@ -139,9 +151,10 @@ pub(super) async fn dismiss(
 /// (saying why, for a failed one).
 pub(crate) async fn result_bytes(
     state: &AppState,
+    owner: &Owner,
     id: &str,
 ) -> Result<(Vec<u8>, &'static str), ApiError> {
-    let r = find(state, id)?;
+    let r = find(state, owner, id).await?;
     match r.status {
         Status::Successful => {}
         Status::Failed => {
@@ -165,9 +178,11 @@ pub(crate) async fn result_bytes(
             ))
         }
     }
-    let bytes = tokio::fs::read(state.jobs.result_path(id))
-        .await
-        .map_err(|_| no_such_job(id))?;
+    let bytes = state
+        .jobs
+        .result(owner, id)
+        .await?
+        .ok_or_else(|| no_such_job(id))?;
     let media_type = if r.media_type.as_deref() == Some(GEO_JSON) {
         GEO_JSON
     } else {
@@ -178,8 +193,9 @@ pub(crate) async fn result_bytes(
 
 pub(super) async fn results(
     State(state): State<AppState>,
+    Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
 ) -> Result<Response, ApiError> {
-    let (bytes, media_type) = result_bytes(&state, &id).await?;
+    let (bytes, media_type) = result_bytes(&state, &owner, &id).await?;
     Ok(respond(media_type, bytes))
 }

@@ -10,21 +10,28 @@
 //! | `processes.rs` | `GET /processes`, `GET /processes/{id}` (`fit`, `interpolate`, `evaluate`) |
 //! | `execute.rs` | `POST /processes/{id}/execution`: synchronous, or a job with `Prefer: respond-async` |
 //! | `jobs.rs` | `GET /jobs`, `GET`/`DELETE /jobs/{id}`, `GET /jobs/{id}/results` |
-//! | `store.rs` | the job store on disk (size budget, expiry, restarts) |
+//! | `store.rs` | the job store: owners, and the calls both stores answer |
+//! | `disk.rs` | the job store on disk (size budget, expiry, restarts) |
+//! | `postgres.rs` | the job store in PostgreSQL (a queue any replica takes jobs from, leases) |
 //! | `features.rs` | `GET /collections…`: each successful GeoJSON job as a feature collection |
 //!
 //! Links are absolute, made from the request's `Host` header (GDAL and OWSLib follow them).
 
+mod disk;
 mod execute;
 mod features;
 mod jobs;
+mod postgres;
 mod processes;
 mod store;
 
+pub(crate) use disk::DiskStore;
+pub(crate) use execute::start_worker;
+pub(crate) use postgres::PgStore;
 pub(crate) use store::JobStore;
 
 use crate::service::handlers::JSON;
-use crate::service::AppState;
+use crate::service::{AppState, OPENAPI_JSON_TYPE};
 use axum::extract::State;
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -144,7 +151,8 @@ pub(super) fn landing(headers: &HeaderMap) -> Response {
         "links": [
             link(format!("{b}/?f=json"), "self", JSON, "this document"),
             link(format!("{b}/"), "alternate", "text/html", "the map page"),
-            link(format!("{b}/openapi.yaml"), "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition"),
+            link(format!("{b}/openapi.json"), "service-desc", OPENAPI_JSON_TYPE, "the API definition (JSON)"),
+            link(format!("{b}/openapi.yaml"), "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition (YAML, the hand-written source)"),
             link(format!("{b}/conformance"), "conformance", JSON, "conformance classes"),
             link(format!("{b}/conformance"), "http://www.opengis.net/def/rel/ogc/1.0/conformance", JSON, "conformance classes"),
             link(format!("{b}/processes"), "http://www.opengis.net/def/rel/ogc/1.0/processes", JSON, "processes"),
