@@ -37,12 +37,13 @@ def fit(
     control_points: Optional[int] = None,
     degree: int = 3,
     knots: str = "geodesic",
-    iterations: int = 30,
+    iterations: Optional[int] = None,
     parameterization: str = "chord",
     step: str = "deng-lin",
     solver: str = "gls-pia",
     target_max_error_rad: Optional[float] = None,
     tolerance_rad: Optional[float] = None,
+    method: str = "gls-pia",
 ) -> dict:
     """Fit a spherical B-spline (GLS-PIA) to ordered unit vectors, as ``spherefit sphere fit``.
 
@@ -53,6 +54,14 @@ def fit(
     that tolerance whose document has ``"tolerance"`` instead of ``"history"`` (not with
     ``control_points`` or ``target_max_error_rad``: the tolerance fit chooses its own).
 
+    ``iterations`` defaults to the paper's 30. ``method`` is ``"gls-pia"`` (the paper's
+    B-spline) or a method the paper compares itself with: ``"jupp-kent"``, ``"samir"``,
+    ``"cbc"`` or ``"bcc"`` (``docs/paper.md``); these return ``{"method", "parameters",
+    "fitted_points", "metrics", "iterations", "converged", "free_points", "curve": {"type":
+    "polyline", "parameters", "points"}}``, take ``control_points`` as their budget of free
+    points and ``iterations`` as a cap (Jupp-Kent rounds, Samir steps), and refuse the
+    B-spline's own options (``degree``, ``knots``, ``step``, ``solver``, targets).
+
     Raises :class:`SpherefitError` naming the point (``/points/3/1``) or the option.
     """
     data, m, d = _points(points)
@@ -62,6 +71,7 @@ def fit(
         control_points=control_points, degree=degree, knots=knots, iterations=iterations,
         parameterization=parameterization, step=step, solver=solver,
         target_max_error_rad=target_max_error_rad, tolerance_rad=tolerance_rad,
+        method=method,
     )
     return json.loads(text)
 

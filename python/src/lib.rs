@@ -23,6 +23,7 @@ use spherefit::earth::{
     Problem, RawOptions, Topology,
 };
 use spherefit::sphere::cancel::Cancel;
+use spherefit::sphere::compare::{fit_with, CompareError, Method, MethodOptions};
 use spherefit::sphere::curve::even_parameters;
 use spherefit::sphere::fit::options_check::{check_given_together, check_tolerance_fit};
 use spherefit::sphere::{
@@ -624,8 +625,8 @@ fn sphere_failure(pointer: String, e: SphereError) -> Failure {
 #[pyfunction]
 #[pyo3(signature = (
     data, m, d, parameters=None, *, control_points=None, degree=3, knots="geodesic",
-    iterations=30, parameterization="chord", step="deng-lin", solver="gls-pia",
-    target_max_error_rad=None, tolerance_rad=None
+    iterations=None, parameterization="chord", step="deng-lin", solver="gls-pia",
+    target_max_error_rad=None, tolerance_rad=None, method="gls-pia"
 ))]
 #[allow(clippy::too_many_arguments)]
 fn sphere_fit(
@@ -637,19 +638,41 @@ fn sphere_fit(
     control_points: Option<usize>,
     degree: usize,
     knots: &str,
-    iterations: usize,
+    iterations: Option<usize>,
     parameterization: &str,
     step: &str,
     solver: &str,
     target_max_error_rad: Option<f64>,
     tolerance_rad: Option<f64>,
+    method: &str,
 ) -> PyResult<String> {
     let run = || -> Result<String, Failure> {
         let parameterization = parse::<Parameterization>("parameterization", parameterization)?;
+        let method = parse::<Method>("method", method)?;
+        if method != Method::GlsPia {
+            return method_fit(MethodFitArgs {
+                data: &data,
+                m,
+                d,
+                parameters: parameters.as_deref(),
+                control_points,
+                iterations,
+                parameterization,
+                method,
+                only_gls_pia: [
+                    ("degree", degree != 3),
+                    ("knots", knots != "geodesic"),
+                    ("step", step != "deng-lin"),
+                    ("solver", solver != "gls-pia"),
+                    ("target_max_error_rad", target_max_error_rad.is_some()),
+                    ("tolerance_rad", tolerance_rad.is_some()),
+                ],
+            });
+        }
         let mut options = FitOptions::default()
             .with_degree(degree)
             .with_knots(parse::<KnotPlacement>("knots", knots)?)
-            .with_iterations(iterations)
+            .with_iterations(iterations.unwrap_or(spherefit::sphere::fit::DEFAULT_ITERATIONS))
             .with_parameterization(parameterization)
             .with_step(parse::<StepRule>("step", step)?)
             .with_solver(parse::<Solver>("solver", solver)?);
@@ -683,6 +706,49 @@ fn sphere_fit(
             .map_err(|e| Failure::option(format!("writing the document: {e}")))
     };
     py.detach(run).map_err(|f| f.into_py(py))
+}
+
+/// What `sphere_fit` hands to [`method_fit`].
+struct MethodFitArgs<'a> {
+    data: &'a [u8],
+    m: usize,
+    d: usize,
+    parameters: Option<&'a [f64]>,
+    control_points: Option<usize>,
+    iterations: Option<usize>,
+    parameterization: Parameterization,
+    method: Method,
+    /// The B-spline fit's options, and whether each was given (differs from its default).
+    only_gls_pia: [(&'static str, bool); 6],
+}
+
+/// `sphere_fit(method=...)` for the methods the GLS-PIA paper compares itself with
+/// (`spherefit::sphere::compare`), as `spherefit sphere fit --method`.
+fn method_fit(a: MethodFitArgs<'_>) -> Result<String, Failure> {
+    if let Some((name, _)) = a.only_gls_pia.iter().find(|(_, given)| *given) {
+        return Err(Failure::option(format!(
+            "{name}: applies to method=\"gls-pia\" only, not {:?}",
+            a.method.name()
+        )));
+    }
+    let points = point_set(a.data, a.m, a.d)?;
+    let options = MethodOptions {
+        control_points: a.control_points,
+        iterations: a.iterations,
+        gls_pia: FitOptions::default().with_parameterization(a.parameterization),
+        ..MethodOptions::default()
+    };
+    let r = fit_with(a.method, &points, a.parameters, &options).map_err(|e| match e {
+        CompareError::Sphere(e) => sphere_failure(place(&e), e),
+        CompareError::InvalidOption { option, .. } => Failure::option(format!("{option}: {e}")),
+        e => Failure {
+            message: format!("/points: {e}"),
+            index: None,
+            pointer: Some("/points".into()),
+            problem: "invalid-points",
+        },
+    })?;
+    Ok(r.document().to_string())
 }
 
 /// Interpolates the rows of an (m, d) array with a spherical Beta-spline, as

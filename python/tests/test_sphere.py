@@ -35,6 +35,17 @@ def test_fit_on_s3_with_parameters_equals_cli(tmp_path):
     assert len(got["spline"]["control_points"][0]) == 4
 
 
+@pytest.mark.parametrize("method", ["jupp-kent", "samir", "cbc", "bcc"])
+def test_compared_methods_equal_cli(method):
+    p = points(WAVY)
+    got = spherefit.sphere.fit(p, method=method, control_points=12, iterations=40)
+    assert got == run_cli("sphere", "fit", "--method", method, "-n", "12", "--iterations", "40", WAVY)
+    assert got["method"] == method
+    assert len(got["fitted_points"]) == len(p)
+    with pytest.raises(spherefit.SpherefitError, match="knots"):
+        spherefit.sphere.fit(p, method=method, knots="uniform")
+
+
 def test_fit_to_tolerance_equals_cli():
     got = spherefit.sphere.fit(points(WAVY), tolerance_rad=1e-4)
     assert got == run_cli("sphere", "fit", "--tolerance-rad", "1e-4", WAVY)

@@ -4,6 +4,7 @@ use crate::cli::{read_json, write_json, Failure};
 use crate::document::beta::{curve_from_json, InterpolationDocument};
 use crate::document::pointer;
 use crate::document::{tolerance_document, FitDocument, PointsInput, SamplesDocument};
+use crate::sphere::compare::{fit_with, CompareError, Method, MethodOptions};
 use crate::sphere::compress::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::curve::SphericalCurve;
 use crate::sphere::fit;
@@ -110,6 +111,12 @@ pub(crate) struct FitArgs {
     /// --target-max-error-rad). The output then has a "tolerance" object instead of "history"
     #[arg(long)]
     tolerance_rad: Option<f64>,
+    /// Method: gls-pia (the paper's B-spline) or one it compares itself with: jupp-kent,
+    /// samir, cbc or bcc, which write {"method", "parameters", "fitted_points", "metrics",
+    /// "iterations", "converged", "free_points", "curve": {"type": "polyline", ...}}
+    /// (docs/paper.md) [default: gls-pia]
+    #[arg(long)]
+    method: Option<Method>,
     /// Input JSON file; `-` or absent reads stdin
     file: Option<PathBuf>,
 }
@@ -145,6 +152,9 @@ fn given<const N: usize>(options: [(&'static str, bool); N]) -> Vec<&'static str
 }
 
 fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
+    if let Some(method) = a.method.filter(|&m| m != Method::GlsPia) {
+        return method_cmd(a, method);
+    }
     check_given_together(&given([
         ("control_points", a.control_points.is_some()),
         ("knots", a.knots.is_some()),
@@ -176,6 +186,47 @@ fn fit_cmd(a: FitArgs) -> Result<(), Failure> {
     let report = fit(&input.points, input.parameters.as_deref(), &options)
         .map_err(|e| sphere_failure(&e, input.points_pointer))?;
     write_json(&FitDocument::from(&report))
+}
+
+/// `sphere fit --method jupp-kent|samir|cbc|bcc`: `sphere::compare`. `--control-points` is
+/// the budget of free points, `--iterations` caps the iterative methods; the options of the
+/// B-spline fit alone are refused.
+fn method_cmd(a: FitArgs, method: Method) -> Result<(), Failure> {
+    let only_gls_pia = [
+        ("degree", a.degree != 3),
+        ("knots", a.knots.is_some()),
+        ("step", a.step.is_some()),
+        ("solver", a.solver.is_some()),
+        ("target_max_error_rad", a.target_max_error_rad.is_some()),
+        ("tolerance_rad", a.tolerance_rad.is_some()),
+    ];
+    if let Some((name, _)) = only_gls_pia.iter().find(|(_, given)| *given) {
+        return Err(Failure::input(format!(
+            "{}: applies to --method gls-pia only, not {}",
+            super::flag(name),
+            method.name()
+        )));
+    }
+    let input = PointsInput::from_json(&read_json(a.file.as_ref())?).map_err(Failure::input)?;
+    let options = MethodOptions {
+        control_points: a.control_points,
+        iterations: a.iterations,
+        gls_pia: FitOptions {
+            parameterization: a.parameterization,
+            ..FitOptions::default()
+        },
+        ..MethodOptions::default()
+    };
+    let r = fit_with(method, &input.points, input.parameters.as_deref(), &options).map_err(
+        |e| match e {
+            CompareError::Sphere(e) => sphere_failure(&e, input.points_pointer),
+            CompareError::InvalidOption { option, .. } => {
+                Failure::input(format!("{}: {e}", super::flag(option)))
+            }
+            e => Failure::input(format!("{}: {e}", input.points_pointer)),
+        },
+    )?;
+    write_json(&r.document())
 }
 
 /// `sphere fit --tolerance-rad`: the tolerance fitter of `sphere::compress::tolerance`. `--degree` caps

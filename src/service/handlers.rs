@@ -19,6 +19,7 @@ use crate::service::query::{fit_options, GeoEndpoint, Params};
 use crate::service::request::PostRequest;
 use crate::service::{AppState, ServiceConfig, OPENAPI_YAML};
 use crate::sphere::cancel::Cancel;
+use crate::sphere::compare::{fit_with, CompareError, Method, MethodOptions};
 use crate::sphere::compress::tolerance::{fit_to_tolerance, ToleranceOptions};
 use crate::sphere::curve::SphericalCurve;
 use crate::sphere::interpolate;
@@ -328,23 +329,98 @@ fn one_curve(
     Ok((body, points, 1))
 }
 
+/// The options of `/v1/sphere/fit` once checked: the B-spline fit's, the tolerance, and the
+/// method with the `iterations` the caller gave (for the compared methods' cap).
+type SphereFitOptions = (
+    crate::sphere::FitOptions,
+    Option<f64>,
+    (Method, Option<usize>),
+);
+
 /// The options of `/v1/sphere/fit`, checked against the limits.
 fn sphere_fit_options(
     config: &ServiceConfig,
     pairs: Vec<(String, String)>,
-) -> Result<(crate::sphere::FitOptions, Option<f64>), ApiError> {
+) -> Result<SphereFitOptions, ApiError> {
     let p = Params::new(pairs, query::SPHERE_FIT_PARAMS)?;
+    let method = p
+        .get::<Method>("method", "gls-pia, jupp-kent, samir, cbc or bcc")?
+        .unwrap_or_default();
+    if method != Method::GlsPia {
+        let only_gls_pia = [
+            "degree",
+            "knots",
+            "solver",
+            "parameter_correction",
+            "target_max_error_rad",
+            "tolerance_rad",
+        ];
+        if let Some(other) = p.given().into_iter().find(|g| only_gls_pia.contains(g)) {
+            return Err(ApiError::unprocessable(
+                "conflicting-options",
+                format!(
+                    "{other} applies to method=gls-pia only, not method={}",
+                    method.name()
+                ),
+            )
+            .param(other));
+        }
+    }
     let mut options = fit_options(&p, crate::sphere::FitOptions::default())?;
     options.target_max_error_rad = p.num("target_max_error_rad")?;
     query::sphere_given_together(&p)?;
     let tolerance_rad = query::sphere_tolerance(&p)?;
     crate::earth::check_fit_options(&options, &config.limits)?;
-    Ok((options, tolerance_rad))
+    let iterations = p.int("iterations")?;
+    Ok((options, tolerance_rad, (method, iterations)))
+}
+
+/// `/v1/sphere/fit?method=jupp-kent|samir|cbc|bcc` (`sphere::compare`): `control_points` is
+/// the budget of free points (capped by the limit as GLS-PIA's), `iterations` caps the
+/// iterative methods; the response is [`MethodFit::document`].
+fn sphere_fit_method(
+    input: &PointsInput,
+    method: Method,
+    fit: &crate::sphere::FitOptions,
+    iterations: Option<usize>,
+    cancel: &crate::sphere::cancel::Cancel,
+    config: &ServiceConfig,
+) -> Result<(Vec<u8>, usize, usize), ApiError> {
+    let base = input.points_pointer;
+    let n = input.points.len();
+    let budget = fit
+        .control_points
+        .unwrap_or_else(|| crate::sphere::fit::default_control_points(n, 3))
+        .min(config.limits.max_control_points);
+    let options = MethodOptions {
+        control_points: Some(budget),
+        iterations,
+        gls_pia: crate::sphere::FitOptions {
+            parameterization: fit.parameterization,
+            cancel: cancel.clone(),
+            ..crate::sphere::FitOptions::default()
+        },
+        ..MethodOptions::default()
+    };
+    let r = fit_with(method, &input.points, input.parameters.as_deref(), &options).map_err(
+        |e| match e {
+            CompareError::Sphere(e) => sphere_error(e, base),
+            CompareError::InvalidOption { option, .. } => {
+                ApiError::unprocessable("invalid-option", e.to_string()).param(option)
+            }
+            CompareError::RepeatedParameter { index, .. } => {
+                ApiError::unprocessable("invalid-points", e.to_string())
+                    .at(format!("{base}/{index}"))
+            }
+            e => ApiError::unprocessable("unfittable", e.to_string()).at(base),
+        },
+    )?;
+    one_curve(&r.document(), n)
 }
 
 pub(super) async fn sphere_fit(req: PostRequest) -> Result<Response, ApiError> {
     let config = req.state().config.clone();
-    let ((options, tolerance_rad), accepted) = req
+    let ((options, tolerance_rad, method), accepted) = req
         .accept(&[JSON], |pairs| sphere_fit_options(&config, pairs))
         .await?;
     let out = accepted
@@ -353,6 +429,9 @@ pub(super) async fn sphere_fit(req: PostRequest) -> Result<Response, ApiError> {
             let input = PointsInput::from_json(&v)?;
             let base = input.points_pointer;
             check_point_count(input.points.len(), base, &config)?;
+            if method.0 != Method::GlsPia {
+                return sphere_fit_method(&input, method.0, &options, method.1, cancel, &config);
+            }
             if let Some(tolerance_rad) = tolerance_rad {
                 // As `sphere fit --tolerance-rad`: degree caps the degrees tried.
                 let mut t = ToleranceOptions {

@@ -121,7 +121,10 @@ pub fn parse_number(s: &str) -> Option<f64> {
 }
 
 /// Parameters of `/v1/sphere/fit`.
-pub const SPHERE_FIT_PARAMS: &[&str] = &crate::sphere::fit::options_check::SPHERE_FIT_OPTIONS;
+pub const SPHERE_FIT_PARAMS: &[&str] = &crate::sphere::fit::options_check::concat_names::<9, 1, 10>(
+    crate::sphere::fit::options_check::SPHERE_FIT_OPTIONS,
+    ["method"],
+);
 /// Parameters of `/v1/sphere/evaluate`.
 pub const SPHERE_EVALUATE_PARAMS: &[&str] = &["samples", "at"];
 /// Parameters of `/v1/sphere/interpolate`.

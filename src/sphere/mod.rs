@@ -38,6 +38,7 @@ macro_rules! from_names {
 
 pub mod cancel;
 pub mod certify;
+pub mod compare;
 pub mod compress;
 pub mod curve;
 pub mod fit;

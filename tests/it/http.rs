@@ -1477,3 +1477,84 @@ mod no_panics {
         }
     }
 }
+
+#[tokio::test]
+async fn sphere_fit_with_a_compared_method_answers_its_document_and_refuses_spline_options() {
+    let app = app();
+    let rows: Vec<Value> = (0..120)
+        .map(|i| {
+            let a = i as f64 * 0.01;
+            let lat = 0.1 * (5.0 * a).sin();
+            json!([lat.cos() * a.cos(), lat.cos() * a.sin(), lat.sin()])
+        })
+        .collect();
+    for method in ["jupp-kent", "samir", "cbc", "bcc"] {
+        let uri = format!("/v1/sphere/fit?method={method}&control_points=20&iterations=50");
+        let doc = ok(&post_json(&app, &uri, &json!({"points": rows})).await);
+        assert_eq!(doc["method"], method);
+        assert_eq!(doc["fitted_points"].as_array().unwrap().len(), 120);
+        assert_eq!(doc["curve"]["type"], "polyline");
+        assert!(
+            doc["metrics"]["max_error_rad"].as_f64().unwrap() < 1e-3,
+            "{method}"
+        );
+        // The same document as the command line's.
+        let dir =
+            std::env::temp_dir().join(format!("spherefit-method-{method}-{}", std::process::id()));
+        std::fs::write(&dir, serde_json::to_vec(&json!({"points": rows})).unwrap()).unwrap();
+        let out = crate::helpers::run_spherefit(
+            &[
+                "sphere",
+                "fit",
+                "--method",
+                method,
+                "-n",
+                "20",
+                "--iterations",
+                "50",
+                dir.to_str().unwrap(),
+            ],
+            None,
+        );
+        std::fs::remove_file(&dir).ok();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let cli: Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(cli, doc, "{method}");
+    }
+    let r = post_json(
+        &app,
+        "/v1/sphere/fit?method=cbc&knots=uniform",
+        &json!({"points": rows}),
+    )
+    .await;
+    assert_eq!(r.status.as_u16(), 422);
+    assert_eq!(r.json()["parameter"], "knots");
+    let r = post_json(
+        &app,
+        "/v1/sphere/fit?method=splines",
+        &json!({"points": rows}),
+    )
+    .await;
+    assert_eq!(r.status.as_u16(), 400);
+    let r = post_json(
+        &app,
+        "/v1/sphere/fit?method=bcc&control_points=3",
+        &json!({"points": rows}),
+    )
+    .await;
+    assert_eq!(r.status.as_u16(), 422);
+    assert_eq!(r.json()["parameter"], "control_points");
+    let out = crate::helpers::run_spherefit(
+        &["sphere", "fit", "--method", "cbc", "--knots", "uniform"],
+        Some(b"[]"),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "spherefit: --knots: applies to --method gls-pia only, not cbc"
+    );
+}

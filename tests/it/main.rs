@@ -8,6 +8,7 @@ mod carry_roundtrip;
 mod cli_batch;
 mod cli_sphere;
 mod compact_output;
+mod compare_methods;
 mod compression;
 mod default_fit;
 mod doc_paths;
