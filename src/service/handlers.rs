@@ -4,12 +4,7 @@
 //! ([`super::request::Accepted::run`]), checking every output size before the work that would
 //! make it.
 
-use crate::service::error::ApiError;
-use crate::service::query;
-use crate::service::query::{GeoEndpoint, Params, fit_options};
-use crate::service::request::PostRequest;
-use crate::service::{AppState, OPENAPI_JSON, OPENAPI_JSON_TYPE, OPENAPI_YAML, ServiceConfig};
-use crate::document::beta::{InterpolationDocument, curve_from_json};
+use crate::document::beta::{curve_from_json, InterpolationDocument};
 use crate::document::{pointer, tolerance_document, FitDocument, PointsInput, SamplesDocument};
 use crate::earth::features::{Document, FeatureStats};
 use crate::earth::job::{Job, Topology};
@@ -17,7 +12,7 @@ use crate::service::error::ApiError;
 use crate::service::query;
 use crate::service::query::{fit_options, GeoEndpoint, Params};
 use crate::service::request::PostRequest;
-use crate::service::{AppState, ServiceConfig, OPENAPI_YAML};
+use crate::service::{AppState, ServiceConfig, OPENAPI_JSON, OPENAPI_JSON_TYPE, OPENAPI_YAML};
 use crate::sphere::cancel::Cancel;
 use crate::sphere::compare::{fit_with, CompareError, Method, MethodOptions};
 use crate::sphere::compress::tolerance::{fit_to_tolerance, ToleranceOptions};

@@ -15,10 +15,12 @@
 //! [`DiskStore::open`] reads the directory back: finished jobs (and their results) stay readable;
 //! jobs that were accepted or running are marked failed, since their work died with the process.
 
-use crate::service::handlers::Progress;
-use crate::service::ServiceConfig;
-use crate::service::ogc::store::{JobRecord, Refusal, STATUS_RESERVE, Status, cut, is_job_id, new_id, now_s};
 use crate::service::auth::Owner;
+use crate::service::handlers::Progress;
+use crate::service::ogc::store::{
+    cut, is_job_id, new_id, now_s, JobRecord, Refusal, Status, STATUS_RESERVE,
+};
+use crate::service::ServiceConfig;
 use crate::sphere::cancel::Cancel;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

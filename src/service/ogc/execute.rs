@@ -13,19 +13,19 @@
 //! description gives, or `{"value": …}`) and checked by [`into_job`], so a 422 names the same
 //! option, with a pointer into the execute request.
 
+use crate::earth::into_job;
+use crate::earth::job::{Job, OptionType, RawOptions};
 use crate::service::auth::Owner;
-use crate::service::handlers::{JSON, Progress, geo_run, output_media_type, parse_json, respond};
-use crate::service::query::{GeoEndpoint, Params};
-use crate::service::request::PostRequest;
-use crate::service::{AppState, ServiceConfig, Slot};
 use crate::service::error::ApiError;
+use crate::service::handlers::{geo_run, output_media_type, parse_json, respond, Progress, JSON};
 use crate::service::ogc::jobs::status_info;
 use crate::service::ogc::postgres::{Claim, PgStore};
 use crate::service::ogc::processes::process;
-use crate::service::ogc::store::{JobStore, Status, is_job_id};
+use crate::service::ogc::store::{is_job_id, JobStore, Status};
 use crate::service::ogc::{base_url, json_response};
-use crate::earth::into_job;
-use crate::earth::job::{Job, OptionType, RawOptions};
+use crate::service::query::{GeoEndpoint, Params};
+use crate::service::request::PostRequest;
+use crate::service::{AppState, ServiceConfig, Slot};
 use crate::sphere::cancel::Cancel;
 use axum::extract::{Extension, Path, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};

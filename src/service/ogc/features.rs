@@ -10,13 +10,13 @@
 //! last collection read is kept ([`CACHE`]) so that paging through it does not parse it again.
 
 use crate::service::auth::Owner;
-use crate::service::handlers::{GEO_JSON, JSON, parse_json, respond};
-use crate::service::query::Params;
-use crate::service::AppState;
 use crate::service::error::ApiError;
+use crate::service::handlers::{parse_json, respond, GEO_JSON, JSON};
 use crate::service::ogc::jobs::{find, result_bytes};
 use crate::service::ogc::store::{JobRecord, Status};
 use crate::service::ogc::{base_url, json_response, link};
+use crate::service::query::Params;
+use crate::service::AppState;
 use axum::extract::{Extension, Path, Query, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::Response;

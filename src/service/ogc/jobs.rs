@@ -4,11 +4,11 @@
 //! later execution and plain downloads read the same bytes).
 
 use crate::service::auth::Owner;
-use crate::service::handlers::{GEO_JSON, JSON, respond};
-use crate::service::AppState;
 use crate::service::error::ApiError;
-use crate::service::ogc::store::{JobRecord, Status, is_job_id};
+use crate::service::handlers::{respond, GEO_JSON, JSON};
+use crate::service::ogc::store::{is_job_id, JobRecord, Status};
 use crate::service::ogc::{base_url, json_response, link};
+use crate::service::AppState;
 use axum::extract::{Extension, Path, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::Response;

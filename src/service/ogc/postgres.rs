@@ -33,9 +33,9 @@
 //! each operation); a database that cannot be reached gives [`Refusal::Unavailable`] (503
 //! `store-unavailable`) at once, and the pool reconnects when it is back.
 
-use crate::service::ServiceConfig;
-use crate::service::ogc::store::{JobRecord, Refusal, STATUS_RESERVE, Status, cut, new_id};
 use crate::service::auth::Owner;
+use crate::service::ogc::store::{cut, new_id, JobRecord, Refusal, Status, STATUS_RESERVE};
+use crate::service::ServiceConfig;
 use deadpool_postgres::{Manager, ManagerConfig, Pool, RecyclingMethod, Runtime};
 use flate2::read::ZlibDecoder;
 use flate2::write::ZlibEncoder;

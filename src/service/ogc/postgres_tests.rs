@@ -4,9 +4,9 @@
 //! Each test makes its own database, so their workers do not take each other's jobs. Two
 //! [`AppState`]s on one database are two replicas.
 
-use crate::service::ogc::MAX_ATTEMPTS;
-use crate::service::ogc::postgres::PgStore;
 use crate::service::auth::{ApiKeys, Owner};
+use crate::service::ogc::postgres::PgStore;
+use crate::service::ogc::postgres::MAX_ATTEMPTS;
 use crate::service::{router, AppState, ServiceConfig};
 use axum::body::Body;
 use axum::http::{Request, StatusCode};

@@ -8,10 +8,10 @@
 //! Every call that creates, reads, lists or dismisses a job takes the caller's owner: another
 //! owner's job is absent (404), lists hold the caller's jobs only.
 
+use crate::service::auth::{Owner, ANONYMOUS};
 use crate::service::error::ApiError;
 use crate::service::ogc::disk::DiskStore;
 use crate::service::ogc::postgres::PgStore;
-use crate::service::auth::{Owner, ANONYMOUS};
 use axum::http::StatusCode;
 use serde::{Deserialize, Serialize};
 use std::hash::{BuildHasher, Hasher};

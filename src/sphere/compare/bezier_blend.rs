@@ -1,7 +1,7 @@
 //! Gousenbourger et al.'s composite Bézier-like curves (CBC) and blended cubic splines (BCC)
 //! (P.-Y. Gousenbourger, E. Massart & P.-A. Absil, "Data fitting on manifolds with composite
 //! Bézier-like curves and blended cubic splines", Journal of Mathematical Imaging and Vision
-//! 61, 2019, pp. 645–671; the GLS-PIA paper's [GMA18]).
+//! 61, 2019, pp. 645–671; the GLS-PIA paper's \[GMA18\]).
 //!
 //! Both solve, in a tangent space, the Euclidean problem
 //! `min ½ Σ_i ‖B(t_i) − x_i‖² + (λ/2) ∫₀¹ ‖B''‖²` over **C¹ composite cubic Bézier curves**
@@ -12,13 +12,13 @@
 //! the problem is one banded linear system (half-bandwidth 3), solved by band Cholesky in
 //! O(points + K).
 //!
-//! * **CBC** ([`cbc`]): one tangent space, at the base point `m / |m|` (`m` the mean of the
+//! * **CBC** (`cbc`): one tangent space, at the base point `m / |m|` (`m` the mean of the
 //!   data vectors). The control points are mapped back by `exp`, then each segment's first
 //!   inner point is replaced by the reflection of the previous segment's second inner point
 //!   through their joint, `exp_J(−log_J b)`, which makes the curve C¹ on the sphere
 //!   (Gousenbourger et al.'s construction); each segment is a spherical Bézier curve evaluated
 //!   by the Riemannian de Casteljau algorithm (SLERP, [`crate::sphere::SphericalBezier`]).
-//! * **BCC** ([`bcc`]): local fits instead of one global one. At each joint `j` (the data
+//! * **BCC** (`bcc`): local fits instead of one global one. At each joint `j` (the data
 //!   polyline at `t = j / K`, the anchor `a_j`) the same Euclidean problem is solved in
 //!   `T_{a_j}` over the [`WINDOW`] segments on either side of it, and its curve `A_j(t) =
 //!   exp_{a_j}(B_j(t))`; on segment `k` the curve is the geodesic blend
@@ -38,7 +38,7 @@
 //! * BCC's window: [`WINDOW`] segments on each side of the anchor, widened one at a time when
 //!   a window holds too few points for its system.
 
-use super::{CompareError, Fitted, MethodOptions};
+use crate::sphere::compare::{CompareError, Fitted, MethodOptions};
 use crate::sphere::curve::bezier::SphericalBezier;
 use crate::sphere::geometry::point::{
     exp_in_place, log_into, normalize, slerp, Arc, Dynamic, PointSet,

@@ -1,5 +1,5 @@
 //! Jupp–Kent unwrapping (P. E. Jupp & J. T. Kent, "Fitting smooth paths to spherical data",
-//! Applied Statistics 36(1), 1987, pp. 34–46; the GLS-PIA paper's [JK18]).
+//! Applied Statistics 36(1), 1987, pp. 34–46; the GLS-PIA paper's \[JK18\]).
 //!
 //! 1. **Unwrap.** Roll the sphere without slipping along a piecewise-geodesic path through
 //!    points `c_i` (first the data themselves): the path develops onto a polyline `x_i` in
@@ -32,8 +32,8 @@
 //!   repeated points with equal chord-length parameters are refused
 //!   ([`CompareError::RepeatedParameter`]).
 
-use super::frame::{develop, wrap, Walk};
-use super::{Clock, CompareError, Fitted, MethodOptions, Smoothing};
+use crate::sphere::compare::frame::{develop, wrap, Walk};
+use crate::sphere::compare::{Clock, CompareError, Fitted, MethodOptions, Smoothing};
 use crate::sphere::geometry::point::{angle_between, log_into, Dynamic, PointSet};
 
 /// Rounds of unwrapping when [`MethodOptions::iterations`] is not given.

@@ -23,11 +23,13 @@ pub(crate) mod frame;
 pub mod jupp_kent;
 pub mod samir;
 
-use crate::sphere::fit::gls_pia::{default_control_points, fit, FitOptions};
+use crate::sphere::curve::bspline::SphericalBSpline;
 use crate::sphere::fit::knots::{normalize_parameters, parameters};
 use crate::sphere::fit::metrics::{ErrorMetrics, ErrorSums};
+use crate::sphere::fit::options::{default_control_points, FitOptions};
+use crate::sphere::fit::solve::fit;
 use crate::sphere::geometry::point::{angle_between, Arc, Dynamic, PointSet};
-use crate::sphere::{SphereError, SphericalBSpline};
+use crate::sphere::SphereError;
 use std::time::{Duration, Instant};
 
 /// Most dense samples a fit may be asked for (each is one point of the output).
@@ -52,9 +54,9 @@ pub enum Method {
     JuppKent,
     /// Samir et al.'s Palais-metric gradient descent ([`samir`]).
     Samir,
-    /// Gousenbourger et al.'s composite Bézier-like curve ([`bezier_blend::cbc`]).
+    /// Gousenbourger et al.'s composite Bézier-like curve (`cbc`).
     Cbc,
-    /// Gousenbourger et al.'s blended cubic spline ([`bezier_blend::bcc`]).
+    /// Gousenbourger et al.'s blended cubic spline (`bcc`).
     Bcc,
 }
 

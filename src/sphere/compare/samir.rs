@@ -1,6 +1,6 @@
 //! Samir et al.'s gradient descent (C. Samir, P.-A. Absil, A. Srivastava & E. Klassen,
 //! "A gradient-descent method for curve fitting on Riemannian manifolds", Foundations of
-//! Computational Mathematics 12, 2012, pp. 49–73; the GLS-PIA paper's [SASK12]).
+//! Computational Mathematics 12, 2012, pp. 49–73; the GLS-PIA paper's \[SASK12\]).
 //!
 //! The curve γ is discretised at `M` nodes `γ_k = γ(s_k)`, `s_k = k / (M − 1)`, and joined by
 //! great-circle arcs. It minimises
@@ -37,8 +37,8 @@
 //!   it (converged), after [`MethodOptions::iterations`] steps (default 100,000), or at the
 //!   time budget: the GLS-PIA paper stopped it at the wall time of 30 GLS-PIA iterations.
 
-use super::frame::{develop, transport_vector, Walk};
-use super::{polyline_at, Clock, CompareError, Fitted, MethodOptions};
+use crate::sphere::compare::frame::{develop, transport_vector, Walk};
+use crate::sphere::compare::{polyline_at, Clock, CompareError, Fitted, MethodOptions};
 use crate::sphere::geometry::point::{angle, exp_in_place, log_into, Arc, Dynamic, PointSet};
 use crate::sphere::linalg::banded::SymmetricBand;
 
