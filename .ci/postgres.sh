@@ -69,8 +69,10 @@ case "${1:-}" in
   stop) stop "${2:?give the directory of start}" ;;
   run)
     shift
-    eval "$(start)"
+    env=$(start)
+    eval "$env"
     trap 'stop "$SPHEREFIT_TEST_POSTGRES_DIR"' EXIT
+    trap 'exit 130' INT; trap 'exit 143' TERM    # so that a signal stops the server too
     rc=0; "$@" || rc=$?
     exit "$rc"
     ;;
