@@ -211,6 +211,9 @@ pub fn title_of(slug: &str) -> &'static str {
         "too-many-jobs" => "Too many jobs",
         "store-full" => "Job store full",
         "result-not-ready" => "Result not ready",
+        "unreadable-file" => "Unreadable file",
+        "unsupported-crs" => "Unsupported coordinate reference system",
+        "unwritable-output" => "Output cannot be written",
         other => crate::earth::error::title_of(other),
     }
 }

@@ -31,6 +31,7 @@
 
 mod body;
 pub(crate) mod error;
+mod files;
 mod handlers;
 pub(crate) mod metrics;
 mod ogc;

@@ -11,6 +11,7 @@ mod compact_output;
 mod compression;
 mod default_fit;
 mod earth;
+mod formats;
 mod helpers;
 mod hostile;
 mod hostile_props;
