@@ -4,10 +4,12 @@
 # the GeoJSON: wall time and peak memory (/usr/bin/time -v) of
 #   spherefit fit --tolerance-m T --threads N INPUT -o OUT.geojson
 # for each input format (the difference to the GeoJSON run is what reading the format costs),
-# and of GDAL converting each file to GeoJSON (ogr2ogr -f GeoJSON), best of RUNS runs each.
+# and of GDAL converting each file to GeoJSON (ogr2ogr -f GeoJSON /vsistdout/, written to
+# /dev/null), best of RUNS runs each.
 #
 #   scripts/formats_bench.sh               # T = 100 m, 2 threads, 3 runs
 #   T=1000 RUNS=5 scripts/formats_bench.sh
+#   BIN=/tmp/spherefit scripts/formats_bench.sh   # that binary, not built
 #
 # Needs npm (world-atlas, topojson-client: installed by speed_bench.sh) and GDAL's ogr2ogr
 # (Debian gdal-bin) to make the inputs. Outputs go to target/formats-bench/.
@@ -18,10 +20,13 @@ THREADS="${THREADS:-2}"
 RUNS="${RUNS:-3}"
 dir=target/formats-bench
 mkdir -p "$dir"
-PREPARE_ONLY=1 scripts/speed_bench.sh
 src=target/speed-bench/land10m_rings.geojson
-cargo build --quiet --release --bin spherefit
-bin=target/release/spherefit
+[ -s "$src" ] || PREPARE_ONLY=1 scripts/speed_bench.sh
+# BIN=path measures that binary as it is (no build).
+if [ -z "${BIN:-}" ]; then
+  cargo build --quiet --release --bin spherefit
+fi
+bin=${BIN:-target/release/spherefit}
 
 [ -s "$dir/land.shp" ] || ogr2ogr -f "ESRI Shapefile" -lco ENCODING=UTF-8 "$dir/land.shp" "$src"
 [ -s "$dir/land.gpkg" ] || ogr2ogr -f GPKG "$dir/land.gpkg" "$src" -nln land
@@ -56,8 +61,7 @@ for f in land.geojson land.shp land.gpkg land.fgb; do
   if [ "$f" = land.geojson ]; then
     og="-" ogm="-"
   else
-    rm -f "$dir/gdal.geojson"
-    read -r og ogm < <(measure ogr2ogr -overwrite -f GeoJSON "$dir/gdal.geojson" "$dir/$f")
+    read -r og ogm < <(measure ogr2ogr -f GeoJSON /vsistdout/ "$dir/$f")
   fi
   size=$(du -h "$dir/$f" | cut -f1)
   [ "$f" = land.shp ] && size="$(du -ch "$dir"/land.shp "$dir"/land.dbf "$dir"/land.shx | tail -1 | cut -f1)"
