@@ -47,7 +47,7 @@ pub fn open(path: &Path, name: &str, options: &ReadOptions) -> Result<Vec<Layer>
         super::single_layer(name, super::Kind::Shapefile, options)?;
         vec![siblings(path, name)?]
     };
-    files.into_iter().map(|f| layer(f)).collect()
+    files.into_iter().map(layer).collect()
 }
 
 /// A sibling of `path` with extension `ext` (either case), if it exists.

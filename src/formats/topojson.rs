@@ -139,8 +139,7 @@ fn decode_arc(a: &Value, transform: Transform) -> Result<Vec<Vec<f64>>, String> 
     for (j, p) in points.iter().enumerate() {
         let nums: Option<Vec<f64>> = p
             .as_array()
-            .map(|p| p.iter().map(Value::as_f64).collect())
-            .flatten();
+            .and_then(|p| p.iter().map(Value::as_f64).collect());
         let nums = nums
             .filter(|n| n.len() >= 2)
             .ok_or_else(|| format!("position {j} is not 2 or more numbers"))?;
