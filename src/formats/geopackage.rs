@@ -5,7 +5,7 @@
 //! ORDER BY fid LIMIT n`), so a large file is never loaded whole. The feature id is the GeoJSON
 //! `id`; the other columns are `properties` (INTEGER, REAL, TEXT as JSON numbers and strings,
 //! BOOLEAN as `true`/`false`, DATE and DATETIME as their text, BLOB as base64). The geometry
-//! blob (`GP` header and WKB) is read by [`super::wkb`]; its CRS is the table's `srs_id` in
+//! blob (`GP` header and WKB) is read by the `wkb` module; its CRS is the table's `srs_id` in
 //! `gpkg_spatial_ref_sys` (0 is "undefined geographic": lon/lat, as the specification says).
 
 use super::wkb;

@@ -33,7 +33,7 @@
 //! where the reading failed, as far as they are known; nothing in a file makes the reader
 //! panic.
 //!
-//! # Writing ([`write`])
+//! # Writing ([`mod@write`])
 //! [`write::FeatureWriter`] takes output features one by one and writes a GeoPackage,
 //! FlatGeobuf, Shapefile or GPX file at the end (the features are spooled to a temporary file
 //! beside the output first: the schema of the table is known only once every feature is).
