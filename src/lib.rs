@@ -43,6 +43,8 @@
 pub mod cli;
 pub mod document;
 pub mod earth;
+#[cfg(feature = "formats")]
+pub mod formats;
 #[cfg(feature = "service")]
 pub mod service;
 pub mod sphere;

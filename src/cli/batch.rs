@@ -24,7 +24,11 @@ mod pipeline;
 mod topology;
 
 use crate::cli::Failure;
-use crate::earth::job::{Job, Topology};
+
+use crate::earth::job::{Job, ParameterizationOption, Topology};
+use crate::formats::write::FeatureWriter;
+use crate::formats::{Kind, ReadOptions};
+
 use input::{Format, Input};
 use pipeline::{Fatal, Settings, Sink};
 use std::io::{self, IsTerminal, Write};
@@ -44,12 +48,33 @@ use progress::TerminalProgress;
 use summary::Summary;
 
 /// `spherefit fit`: per feature, or (`--topology shared`) the input as one coverage.
-pub(crate) fn fit(a: FitArgs) -> Result<(), Failure> {
+pub(crate) fn fit(mut a: FitArgs) -> Result<(), Failure> {
+    // A GPX track's times are its parameterisation unless the command says otherwise.
+    if a.fit.parameterization.is_none()
+        && a.fit.time_property.is_none()
+        && first_is_gpx(&a.common.batch)
+    {
+        a.fit.parameterization = Some(ParameterizationOption::Time);
+    }
     let job = fit_job(&a)?;
     match job.topology {
         Topology::Shared => topology::fit(job, &a.common.batch),
         Topology::PerFeature => run("fit", job, a.common.batch),
     }
+}
+
+/// True when the first input is a GPX file (by `--format`, its first bytes or its name).
+fn first_is_gpx(batch: &BatchArgs) -> bool {
+    if batch.format != Format::Auto {
+        return batch.format == Format::Gpx;
+    }
+    let Some(p) = batch.inputs.first().filter(|p| p.as_os_str() != "-") else {
+        return false;
+    };
+    let mut head = Vec::with_capacity(1024);
+    let read = std::fs::File::open(p)
+        .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, 1024), &mut head));
+    read.is_ok() && Kind::detect(Some(p), &head) == Some(Kind::Gpx)
 }
 
 /// `spherefit interpolate`.
@@ -120,6 +145,33 @@ fn inputs(paths: &[PathBuf]) -> Result<Vec<Input>, Failure> {
     Ok(out)
 }
 
+/// The output format: `--output-format`, else the format `-o`'s extension names (`.gpkg`,
+/// `.fgb`, `.shp`, `.gpx`), else the input's (`--format`, else the first input's) when it is
+/// GeoJSON or a GeoJSON sequence, else GeoJSON.
+fn output_format(batch: &BatchArgs, first: Format, out: Option<&Path>) -> Result<Format, Failure> {
+    let by_name = out
+        .and_then(Kind::from_extension)
+        .map(Format::of_kind)
+        .filter(|f| f.is_file_output());
+    let format = [batch.output_format]
+        .into_iter()
+        .chain(by_name)
+        .chain(
+            [batch.format, first]
+                .into_iter()
+                .filter(|f| !f.is_file_output() && *f != Format::Topojson),
+        )
+        .find(|f| *f != Format::Auto)
+        .unwrap_or(Format::Geojson);
+    if format.is_file_output() && out.is_none() {
+        return Err(Failure::input(format!(
+            "--output-format {}: this format is written to a file: add -o FILE",
+            format.kind().map_or("?", Kind::name)
+        )));
+    }
+    Ok(format)
+}
+
 /// A temporary name beside `path` (same directory, so the rename does not cross file
 /// systems): `.NAME.spherefit-PID.tmp`.
 fn temp_beside(path: &Path) -> PathBuf {
@@ -168,24 +220,40 @@ fn run(command: &'static str, job: Job, batch: BatchArgs) -> Result<(), Failure>
             )));
         }
     }
-    let first = input::open(&inputs[0], 0, batch.format).map_err(Failure::input)?;
-    let out_format = [batch.output_format, batch.format, first.format]
-        .into_iter()
-        .find(|f| *f != Format::Auto)
-        .unwrap_or(Format::Geojson);
+    let read_options = ReadOptions {
+        layer: batch.layer.clone(),
+    };
+    let first = input::open(&inputs[0], 0, batch.format, &read_options).map_err(Failure::input)?;
+    if !batch.quiet {
+        for n in &first.notes {
+            stderr_line(&format!("spherefit: {n}"));
+        }
+    }
+    let out_format = output_format(&batch, first.format, out_path.map(PathBuf::as_path))?;
     // A file is written beside its name and renamed when the run did not fail, so a run cut
     // short by a fatal error leaves no complete-looking output (and an existing file as it was).
+    // The formats of `crate::formats` do that themselves.
     let temp_path = out_path
-        .filter(|p| written_via_temp(p))
+        .filter(|p| written_via_temp(p) && !out_format.is_file_output())
         .map(|p| temp_beside(p));
-    let writer: Box<dyn Write> = match (out_path, &temp_path) {
-        (Some(p), t) => Box::new(
-            std::fs::File::create(t.as_deref().unwrap_or(p))
-                .map_err(|e| Failure::input(format!("{}: {e}", p.display())))?,
-        ),
-        (None, _) => Box::new(io::stdout().lock()),
+    let mut sink = match (out_format.kind(), out_path) {
+        (Some(kind), Some(p)) if out_format.is_file_output() => {
+            let file = FeatureWriter::create(kind, p)
+                .map_err(|e| Failure::input(format!("{}: cannot write: {e}", p.display())))?;
+            let out: Box<dyn Write> = Box::new(io::sink());
+            Sink::to_file(io::BufWriter::new(out), out_format, file)
+        }
+        _ => {
+            let writer: Box<dyn Write> = match (out_path, &temp_path) {
+                (Some(p), t) => Box::new(
+                    std::fs::File::create(t.as_deref().unwrap_or(p))
+                        .map_err(|e| Failure::input(format!("{}: {e}", p.display())))?,
+                ),
+                (None, _) => Box::new(io::stdout().lock()),
+            };
+            Sink::new(io::BufWriter::with_capacity(256 << 10, writer), out_format)
+        }
     };
-    let mut sink = Sink::new(io::BufWriter::with_capacity(256 << 10, writer), out_format);
     let total_bytes = inputs.iter().map(|i| i.size).sum::<Option<u64>>();
     let names: Vec<String> = inputs.iter().map(|i| i.name.clone()).collect();
     let settings = Settings {
@@ -193,6 +261,8 @@ fn run(command: &'static str, job: Job, batch: BatchArgs) -> Result<(), Failure>
         allow_spline,
         names: Arc::new(names),
         input_format: batch.format,
+        read_options,
+        quiet: batch.quiet,
     };
     let rest: Vec<(usize, Input)> = inputs.into_iter().enumerate().skip(1).collect();
     let mut progress = TerminalProgress::new(
@@ -208,7 +278,13 @@ fn run(command: &'static str, job: Job, batch: BatchArgs) -> Result<(), Failure>
         Err(e) if fatal.is_none() && !totals.output_closed => Some(Fatal::Output(e)),
         _ => fatal,
     };
+    let notes = std::mem::take(&mut sink.notes);
     drop(sink);
+    if !batch.quiet {
+        for n in notes {
+            stderr_line(&format!("spherefit: {n}"));
+        }
+    }
     if let (Some(p), Some(t)) = (out_path, &temp_path) {
         if fatal.is_none() {
             std::fs::rename(t, p).map_err(|e| {

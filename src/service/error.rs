@@ -215,6 +215,9 @@ pub fn title_of(slug: &str) -> &'static str {
         "store-unavailable" => "Job store unavailable",
         "result-not-ready" => "Result not ready",
         "unauthorized" => "Unauthorized",
+        "unreadable-file" => "Unreadable file",
+        "unsupported-crs" => "Unsupported coordinate reference system",
+        "unwritable-output" => "Output cannot be written",
         other => crate::earth::error::title_of(other),
     }
 }

@@ -9,6 +9,7 @@ use crate::document::{pointer, tolerance_document, FitDocument, PointsInput, Sam
 use crate::earth::features::{Document, FeatureStats};
 use crate::earth::job::{Job, Topology};
 use crate::service::error::ApiError;
+use crate::service::files;
 use crate::service::query;
 use crate::service::query::{fit_options, GeoEndpoint, Params};
 use crate::service::request::PostRequest;
@@ -59,18 +60,67 @@ pub(super) async fn evaluate(req: PostRequest) -> Result<Response, ApiError> {
 
 async fn geo(req: PostRequest, endpoint: GeoEndpoint) -> Result<Response, ApiError> {
     let config = req.state().config.clone();
+    // `/v1/fit` also takes the files of `crate::formats` and answers a GeoPackage on request
+    // (`super::files`).
+    let fit = matches!(endpoint, GeoEndpoint::Fit);
+    let upload = if fit {
+        files::upload_kind(req.headers())
+    } else {
+        None
+    };
+    let geopackage = fit && files::wants_geopackage(req.headers());
+    let types: &[&str] = if fit {
+        &[
+            GEO_JSON,
+            JSON,
+            files::ZIP,
+            files::GEOPACKAGE,
+            files::FLATGEOBUF,
+            files::GPX,
+        ]
+    } else {
+        &[GEO_JSON, JSON]
+    };
     let (job, accepted) = req
-        .accept(&[GEO_JSON, JSON], |pairs| {
+        .accept(types, |mut pairs| {
+            // A GPX track's times are its parameterisation unless the query says otherwise.
+            let time_given = pairs
+                .iter()
+                .any(|(k, _)| k == "parameterization" || k == "time_property");
+            if upload == Some(crate::formats::Kind::Gpx) && !time_given {
+                pairs.push(("parameterization".into(), "time".into()));
+            }
             query::geo_job(pairs, endpoint, &config.limits)
         })
         .await?;
     let format = job.format;
+    if geopackage && format != crate::earth::job::OutputFormat::GeoJson {
+        return Err(ApiError::unprocessable(
+            "conflicting-options",
+            "Accept: application/geopackage+sqlite3 writes features: leave out format=topojson",
+        )
+        .param("format"));
+    }
     let out = accepted
         .run(endpoint.route(), move |bytes, cancel| {
-            let value = parse_json(bytes)?;
-            geo_run(value, endpoint, job, &config, cancel, &Progress::default())
+            let value = match upload {
+                Some(kind) => files::read_upload(bytes, kind)?,
+                None if fit => files::decode_topology(parse_json(bytes)?)?,
+                None => parse_json(bytes)?,
+            };
+            let (out, points, curves) =
+                geo_run(value, endpoint, job, &config, cancel, &Progress::default())?;
+            let out = if geopackage {
+                files::to_geopackage(&out)?
+            } else {
+                out
+            };
+            Ok((out, points, curves))
         })
         .await?;
+    if geopackage {
+        return Ok(respond(files::GEOPACKAGE, out));
+    }
     Ok(respond(output_media_type(format), out))
 }
 

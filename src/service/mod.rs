@@ -32,6 +32,7 @@
 pub mod auth;
 mod body;
 pub(crate) mod error;
+mod files;
 mod handlers;
 pub(crate) mod metrics;
 mod ogc;

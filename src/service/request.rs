@@ -48,6 +48,11 @@ impl PostRequest {
         &self.state
     }
 
+    /// The request's headers.
+    pub(super) fn headers(&self) -> &HeaderMap {
+        &self.headers
+    }
+
     /// Checks the content type (one of `accepted`) and the query pairs (`check`, which turns
     /// them into the options of the work) before the body is read, then reads the body.
     ///

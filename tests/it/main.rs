@@ -13,6 +13,7 @@ mod compression;
 mod default_fit;
 mod doc_paths;
 mod earth;
+mod formats;
 mod helpers;
 mod hostile;
 mod hostile_props;

@@ -50,10 +50,12 @@ Progress and summary:
 /// Inputs, outputs and how the run reports.
 #[derive(Debug, Args)]
 pub(crate) struct BatchArgs {
-    /// GeoJSON inputs, read in order: files, or `-` for stdin [default: stdin]
+    /// Inputs, read in order: GeoJSON files (or `-` for stdin), Shapefiles (.shp or .zip),
+    /// GeoPackages, FlatGeobuf, GPX or TopoJSON files [default: stdin]
     #[arg(value_name = "INPUT", help_heading = "Input and output")]
     pub(super) inputs: Vec<PathBuf>,
-    /// Write the output to this file (`-` is stdout) [default: stdout]
+    /// Write the output to this file (`-` is stdout); a name ending .gpkg, .fgb, .shp or .gpx
+    /// writes that format [default: stdout]
     #[arg(short, long, value_name = "OUTPUT", help_heading = "Input and output")]
     pub(super) output: Option<PathBuf>,
     /// Input format, and the output's unless --output-format is given
@@ -75,6 +77,10 @@ pub(crate) struct BatchArgs {
         help_heading = "Input and output"
     )]
     pub(super) output_format: Format,
+    /// The layer to read of a GeoPackage (a table), zipped Shapefile (a .shp in it), GPX
+    /// (waypoints, routes, tracks) or TopoJSON (an object) [default: every layer]
+    #[arg(long, value_name = "NAME", help_heading = "Input and output")]
+    pub(super) layer: Option<String>,
     /// Worker threads [default: RAYON_NUM_THREADS if set, else the number of CPUs]
     #[arg(short = 'j', long, value_name = "N", help_heading = "Run")]
     pub(super) threads: Option<usize>,

@@ -14,6 +14,7 @@
 //! JSON text (other than a FeatureCollection) followed by more text is newline-delimited;
 //! anything else is one document.
 
+use crate::formats::{FormatError, Kind, ReadOptions, Source};
 use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
 use serde_json::value::RawValue;
@@ -59,8 +60,54 @@ pub enum Format {
     /// Newline-delimited GeoJSON: one JSON text (usually a Feature) per line
     #[value(alias = "geojsonl", alias = "ndjson", alias = "jsonl")]
     Lines,
-    /// TopoJSON topology: output only, with `fit --topology shared`
+    /// TopoJSON topology: read (each object's geometries; --layer picks an object); written
+    /// with `fit --topology shared`
     Topojson,
+    /// ESRI Shapefile (.shp with its .dbf, .prj, .cpg, or one .zip); written with -o FILE.shp
+    #[value(alias = "shp")]
+    Shapefile,
+    /// OGC GeoPackage (every feature table, or --layer); written with -o FILE.gpkg
+    #[value(alias = "geopackage")]
+    Gpkg,
+    /// FlatGeobuf; written with -o FILE.fgb
+    #[value(alias = "flatgeobuf")]
+    Fgb,
+    /// GPX (waypoints, routes, tracks with their times); written (tracks and waypoints) with
+    /// -o FILE.gpx
+    Gpx,
+}
+
+impl Format {
+    /// The file format of [`crate::formats`] this is, if it is one (TopoJSON as input).
+    pub fn kind(self) -> Option<Kind> {
+        match self {
+            Format::Shapefile => Some(Kind::Shapefile),
+            Format::Gpkg => Some(Kind::GeoPackage),
+            Format::Fgb => Some(Kind::FlatGeobuf),
+            Format::Gpx => Some(Kind::Gpx),
+            Format::Topojson => Some(Kind::TopoJson),
+            _ => None,
+        }
+    }
+
+    /// The format of a [`Kind`].
+    pub fn of_kind(kind: Kind) -> Format {
+        match kind {
+            Kind::Shapefile => Format::Shapefile,
+            Kind::GeoPackage => Format::Gpkg,
+            Kind::FlatGeobuf => Format::Fgb,
+            Kind::Gpx => Format::Gpx,
+            Kind::TopoJson => Format::Topojson,
+        }
+    }
+
+    /// True for the formats written through [`crate::formats::write`] (a file, not a stream).
+    pub fn is_file_output(self) -> bool {
+        matches!(
+            self,
+            Format::Shapefile | Format::Gpkg | Format::Fgb | Format::Gpx
+        )
+    }
 }
 
 /// One input named on the command line (or stdin).
@@ -155,13 +202,88 @@ pub struct Opened {
     /// The input is a file of this size, at most [`READ_WHOLE_BYTES`]: a document is read whole
     /// first (as long as the file has not grown since).
     whole: Option<usize>,
+    /// A file of one of [`crate::formats`]: its layers, read instead of `reader`.
+    source: Option<Source>,
+    /// What the user should know of the input (its CRS, when it was transformed).
+    pub notes: Vec<String>,
+}
+
+/// How many bytes to look at to find a file's format by its content.
+const MAGIC_BYTES: usize = 1024;
+
+/// Opens a file of [`crate::formats`] (`kind`, or found from its content and name).
+fn open_file_format(
+    input: &Input,
+    index: usize,
+    forced: Format,
+    options: &ReadOptions,
+) -> Result<Option<Opened>, String> {
+    let Some(path) = &input.path else {
+        return match forced.kind() {
+            Some(k) => Err(format!(
+                "stdin: {} is read from a file, not stdin: name the file",
+                k.name()
+            )),
+            None => Ok(None),
+        };
+    };
+    let kind = match forced.kind() {
+        Some(k) => k,
+        None if forced != Format::Auto => return Ok(None),
+        None => {
+            let mut head = Vec::with_capacity(MAGIC_BYTES);
+            std::fs::File::open(path)
+                .and_then(|f| f.take(MAGIC_BYTES as u64).read_to_end(&mut head))
+                .map_err(|e| format!("{}: cannot open: {e}", input.name))?;
+            match Kind::detect(Some(path), &head) {
+                Some(k) => k,
+                None => return Ok(None),
+            }
+        }
+    };
+    let source = crate::formats::open(path, &input.name, kind, options)
+        .map_err(|e: FormatError| e.to_string())?;
+    let notes = source
+        .layers
+        .iter()
+        .filter(|l| !l.crs.is_lonlat())
+        .map(|l| {
+            format!(
+                "{}: layer {:?}: coordinates in {} transformed to lon/lat (EPSG:4326)",
+                input.name, l.name, l.crs.name
+            )
+        })
+        .collect();
+    Ok(Some(Opened {
+        index,
+        format: Format::of_kind(kind),
+        reader: Box::new(io::empty()),
+        count: Arc::new(AtomicU64::new(0)),
+        whole: None,
+        source: Some(source),
+        notes,
+    }))
 }
 
 /// Opens input `index` and finds its format (`forced` unless it is [`Format::Auto`]).
 ///
 /// # Errors
 /// The file cannot be opened or read (the message names it).
-pub fn open(input: &Input, index: usize, forced: Format) -> Result<Opened, String> {
+pub fn open(
+    input: &Input,
+    index: usize,
+    forced: Format,
+    options: &ReadOptions,
+) -> Result<Opened, String> {
+    if let Some(opened) = open_file_format(input, index, forced, options)? {
+        return Ok(opened);
+    }
+    if options.layer.is_some() {
+        return Err(format!(
+            "{}: --layer picks a layer of a GeoPackage, a zipped Shapefile, a GPX or a TopoJSON file; this input is GeoJSON",
+            input.name
+        ));
+    }
     let count = Arc::new(AtomicU64::new(0));
     let raw: Box<dyn Read + Send> = match &input.path {
         Some(p) => Box::new(
@@ -210,6 +332,8 @@ pub fn open(input: &Input, index: usize, forced: Format) -> Result<Opened, Strin
             .size
             .filter(|&n| n <= READ_WHOLE_BYTES)
             .map(|n| n as usize),
+        source: None,
+        notes: Vec::new(),
     })
 }
 
@@ -349,11 +473,45 @@ impl Opened {
     /// [`ReadError::Fatal`] naming the input (and line and column for JSON syntax in a
     /// document), or [`ReadError::Stopped`].
     pub fn read(mut self, name: &str, emit: &mut Emit<'_>) -> Result<(), ReadError> {
+        if let Some(source) = self.source.take() {
+            return self.read_source(source, emit);
+        }
         match self.format {
             Format::Seq => self.read_texts(name, RS, emit),
             Format::Lines => self.read_texts(name, b'\n', emit),
             Format::Geojson | Format::Auto | Format::Topojson => self.read_document(name, emit),
+            Format::Shapefile | Format::Gpkg | Format::Fgb | Format::Gpx => Err(ReadError::Fatal(
+                format!("{name}: the file was not opened as {:?}", self.format),
+            )),
         }
+    }
+
+    /// Reads the features of every layer of a file of [`crate::formats`], numbered on from
+    /// one across its layers. A feature that cannot be read stops the input (the file is
+    /// corrupt): the error names the file, layer, record and byte.
+    fn read_source(&mut self, source: Source, emit: &mut Emit<'_>) -> Result<(), ReadError> {
+        let mut number = 0;
+        let mut read = 0u64;
+        for layer in source.layers {
+            for f in layer.features {
+                let f = f.map_err(|e| ReadError::Fatal(e.to_string()))?;
+                number += 1;
+                let bytes = approximate_size(&f);
+                read += bytes as u64;
+                self.count.store(read, Ordering::Relaxed);
+                let unit = Unit::Record(Record {
+                    at: Position {
+                        input: self.index,
+                        number,
+                        line: None,
+                    },
+                    body: Body::Document(f),
+                    bytes,
+                });
+                emit(unit, read).map_err(|()| ReadError::Stopped)?;
+            }
+        }
+        Ok(())
     }
 
     fn read_texts(
@@ -481,6 +639,23 @@ impl Opened {
                 state.emit(Unit::Members(after))
             }
         }
+    }
+}
+
+/// About the bytes a parsed feature would take as GeoJSON text (24 per number, 16 per other
+/// value), for the pipeline's memory window: cheaper than serialising it.
+fn approximate_size(v: &Value) -> usize {
+    match v {
+        Value::Array(a) => 2 + a.iter().map(approximate_size).sum::<usize>(),
+        Value::Object(o) => {
+            2 + o
+                .iter()
+                .map(|(k, v)| k.len() + 4 + approximate_size(v))
+                .sum::<usize>()
+        }
+        Value::String(s) => s.len() + 2,
+        Value::Number(_) => 24,
+        _ => 16,
     }
 }
 
@@ -710,6 +885,8 @@ mod tests {
                 reader: Box::new(io::Cursor::new(text.as_bytes().to_vec())),
                 count: Arc::new(AtomicU64::new(0)),
                 whole,
+                source: None,
+                notes: Vec::new(),
             };
             let mut units = Vec::new();
             let r = opened.read("t", &mut |u, _| {

@@ -21,6 +21,8 @@ use crate::cli::batch::input::{Body, Format, Input, Opened, Position, ReadError,
 use crate::earth::error::{EarthError, Problem};
 use crate::earth::features::{process_feature, Document, FeatureStats, ProcessedFeature};
 use crate::earth::job::Job;
+use crate::formats::write::FeatureWriter;
+use crate::formats::ReadOptions;
 use serde_json::{Map, Value};
 use std::collections::BTreeMap;
 use std::io::{self, Write};
@@ -255,6 +257,11 @@ pub struct Sink<W: Write> {
     started: bool,
     head: Map<String, Value>,
     tail: Map<String, Value>,
+    /// A file of [`crate::formats`] (GeoPackage, FlatGeobuf, Shapefile, GPX) written instead
+    /// of `out`.
+    file: Option<FeatureWriter>,
+    /// What the file's writer reported (fields renamed), once finished.
+    pub notes: Vec<String>,
 }
 
 impl<W: Write> Sink<W> {
@@ -266,7 +273,16 @@ impl<W: Write> Sink<W> {
             started: false,
             head: Map::new(),
             tail: Map::new(),
+            file: None,
+            notes: Vec::new(),
         }
+    }
+
+    /// A sink writing the features to `file` (`out` is left unused).
+    pub fn to_file(out: W, format: Format, file: FeatureWriter) -> Sink<W> {
+        let mut s = Sink::new(out, format);
+        s.file = Some(file);
+        s
     }
 
     /// Foreign members of an input collection, kept when writing a FeatureCollection (the
@@ -311,13 +327,22 @@ impl<W: Write> Sink<W> {
 
     /// Writes one serialised feature.
     pub fn feature(&mut self, json: &[u8]) -> io::Result<()> {
+        if let Some(f) = &mut self.file {
+            return f.feature(json);
+        }
         match self.format {
             Format::Seq => {
                 self.out.write_all(&[RS])?;
                 self.out.write_all(json)?;
                 self.out.write_all(b"\n")
             }
-            Format::Geojson | Format::Auto | Format::Topojson => {
+            Format::Geojson
+            | Format::Auto
+            | Format::Topojson
+            | Format::Shapefile
+            | Format::Gpkg
+            | Format::Fgb
+            | Format::Gpx => {
                 if self.started {
                     self.out.write_all(b",\n")?;
                 } else {
@@ -334,6 +359,10 @@ impl<W: Write> Sink<W> {
 
     /// Ends the output (closes the FeatureCollection) and flushes.
     pub fn finish(&mut self) -> io::Result<()> {
+        if let Some(f) = self.file.take() {
+            self.notes = f.finish().map_err(io::Error::other)?;
+            return Ok(());
+        }
         if matches!(self.format, Format::Geojson | Format::Auto) {
             if !self.started {
                 self.start()?;
@@ -402,6 +431,10 @@ pub struct Settings {
     pub names: Arc<Vec<String>>,
     /// Forced input format ([`Format::Auto`] to detect each input).
     pub input_format: Format,
+    /// How files of [`crate::formats`] are read (`--layer`).
+    pub read_options: ReadOptions,
+    /// `--quiet`: no notes on stderr.
+    pub quiet: bool,
 }
 
 /// Why [`run`] ended badly.
@@ -565,6 +598,8 @@ fn read_all(
         allow_spline,
         names,
         input_format: forced,
+        read_options,
+        quiet,
     } = settings;
     let (allow_spline, forced) = (*allow_spline, *forced);
     let mut n = 0u64;
@@ -613,7 +648,13 @@ fn read_all(
         match rest.next() {
             None => return Ok(()),
             Some((index, input)) => {
-                opened = super::input::open(&input, index, forced).map_err(ReadError::Fatal)?;
+                opened = super::input::open(&input, index, forced, read_options)
+                    .map_err(ReadError::Fatal)?;
+                if !quiet {
+                    for n in &opened.notes {
+                        super::stderr_line(&format!("spherefit: {n}"));
+                    }
+                }
             }
         }
     }

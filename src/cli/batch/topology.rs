@@ -37,14 +37,59 @@ impl Format {
     }
 }
 
-/// TopoJSON is written (with `--topology shared`), never read.
+/// `--format` names a format that can be read.
 pub(super) fn check_input_format(batch: &BatchArgs) -> Result<(), Failure> {
-    if batch.format == Format::Topojson {
-        return Err(Failure::input(
-            "--format topojson: TopoJSON is an output format here (--output-format topojson with --topology shared); give GeoJSON input",
-        ));
-    }
+    let _ = batch;
     Ok(())
+}
+
+/// The input of a coverage as one FeatureCollection, when it is a file of
+/// [`crate::formats`] (every layer's features, in order); `None` for GeoJSON.
+fn read_file_format(
+    batch: &BatchArgs,
+    path: &std::path::Path,
+    name: &str,
+) -> Result<Option<Vec<u8>>, Failure> {
+    let input = super::input::Input {
+        name: name.to_string(),
+        path: Some(path.to_path_buf()),
+        size: None,
+    };
+    let kind = match batch.format.kind() {
+        Some(k) => k,
+        None if batch.format != Format::Auto => return Ok(None),
+        None => {
+            let mut head = Vec::with_capacity(1024);
+            std::fs::File::open(path)
+                .and_then(|f| f.take(1024).read_to_end(&mut head))
+                .map_err(|e| Failure::input(format!("{name}: cannot open: {e}")))?;
+            match crate::formats::Kind::detect(Some(path), &head) {
+                Some(k) => k,
+                None => return Ok(None),
+            }
+        }
+    };
+    let options = crate::formats::ReadOptions {
+        layer: batch.layer.clone(),
+    };
+    let source = crate::formats::open(path, &input.name, kind, &options)
+        .map_err(|e| Failure::input(e.to_string()))?;
+    let mut features = Vec::new();
+    for layer in source.layers {
+        if !layer.crs.is_lonlat() && !batch.quiet {
+            stderr_line(&format!(
+                "spherefit: {name}: layer {:?}: coordinates in {} transformed to lon/lat (EPSG:4326)",
+                layer.name, layer.crs.name
+            ));
+        }
+        for f in layer.features {
+            features.push(f.map_err(|e| Failure::input(e.to_string()))?);
+        }
+    }
+    let doc = serde_json::json!({"type": "FeatureCollection", "features": features});
+    serde_json::to_vec(&doc)
+        .map(Some)
+        .map_err(|e| Failure::input(format!("{name}: {e}")))
 }
 
 /// Runs the coverage fit of `job` (whose topology is shared).
@@ -69,10 +114,16 @@ pub(super) fn fit(job: Job, batch: &BatchArgs) -> Result<(), Failure> {
         ));
     }
     let (name, bytes) = match batch.inputs.first().filter(|p| p.as_os_str() != "-") {
-        Some(p) => (
-            p.display().to_string(),
-            std::fs::read(p).map_err(|e| Failure::input(format!("{}: {e}", p.display())))?,
-        ),
+        Some(p) => {
+            let name = p.display().to_string();
+            let bytes = match read_file_format(batch, p, &name)? {
+                Some(b) => b,
+                None => {
+                    std::fs::read(p).map_err(|e| Failure::input(format!("{}: {e}", p.display())))?
+                }
+            };
+            (name, bytes)
+        }
         None => {
             let mut b = Vec::new();
             io::stdin()
