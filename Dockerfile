@@ -13,7 +13,7 @@ WORKDIR /src
 COPY Cargo.toml Cargo.lock openapi.yaml build.rs ./
 COPY python/Cargo.toml python/Cargo.toml
 COPY python/src python/src
-COPY benches/sphere.rs benches/beta.rs benches/
+COPY benches/sphere.rs benches/beta.rs benches/compare.rs benches/
 # The map page embeds these (src/service/page.rs).
 COPY web web
 COPY fixtures/us_mexico_border_natural_earth.geojson fixtures/gps_tracks_slovenia_gpxpy.geojson fixtures/
