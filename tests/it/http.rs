@@ -1067,10 +1067,18 @@ fn bad_cases() -> Vec<Bad> {
         bad(
             "an unknown top-level type",
             "/v1/fit",
-            json!({"type": "Topology"}),
+            json!({"type": "Topologie"}),
             422,
             "invalid-geojson",
             "/type",
+        ),
+        bad(
+            "a TopoJSON topology without arcs (TopoJSON is read since the files issue)",
+            "/v1/fit",
+            json!({"type": "Topology"}),
+            400,
+            "unreadable-file",
+            "",
         ),
         bad(
             "a feature without properties",
