@@ -61,12 +61,13 @@ def sphere_fit(
     control_points: Optional[int] = None,
     degree: int = 3,
     knots: str = "geodesic",
-    iterations: int = 30,
+    iterations: Optional[int] = None,
     parameterization: str = "chord",
     step: str = "deng-lin",
     solver: str = "gls-pia",
     target_max_error_rad: Optional[float] = None,
     tolerance_rad: Optional[float] = None,
+    method: str = "gls-pia",
 ) -> str: ...
 def sphere_interpolate(
     data: bytes,
